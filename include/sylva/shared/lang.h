@@ -1,0 +1,89 @@
+// sylva/shared/lang.h -- the bridge that lets one text compile as C++20 and as GLSL 4.60.
+//
+// Rules for every header under sylva/shared/ (see DESIGN.md, "The shared C++/GLSL subset"):
+//  * GLSL names and semantics (uint, vec3, floatBitsToUint, ...); GLM supplies them on the host.
+//  * Typed literals (1.0f, 1u); no mixed-type calls; no pointers, templates, recursion, static,
+//    inline, typedef, sizeof, goto, unsigned, char, default arguments, overloaded operators,
+//    swizzles, implicit bool from integers, arrays as parameters.
+//  * Functions are declared `SYLVA_FN`; out-parameters `SYLVA_OUT(T)`, in-out `SYLVA_INOUT(T)`.
+//  * Buffers: a function that reads a buffer takes `SYLVA_BUF(name)` and reads with
+//    `SYLVA_LOAD(name, index)`. In C++ that is a bounds-safe view over 32-bit words; in GLSL the
+//    shader defines `uint sylva_load_<name>(uint i)` before including the shared header.
+//  * Bit-exact host/GPU parity: use sylva_safe_rcp, canonicalise signed zero with
+//    `SYLVA_PRECISE` and `+ 0.0f`, compile host code with -ffp-contract=off, no fma.
+#ifndef SYLVA_SHARED_LANG_H
+#define SYLVA_SHARED_LANG_H
+
+#ifdef __cplusplus
+#include <cstdint>
+#include <cstddef>
+#include <glm/glm.hpp>
+#include <glm/gtc/type_precision.hpp>
+
+namespace sylva::shared {
+using namespace glm;
+using uint = std::uint32_t;
+
+/// A read-only view of 32-bit words: what crosses to the GPU. Out-of-range loads return 0,
+/// so corrupted encodings can never read outside the buffer on the host.
+struct Words {
+    const std::uint32_t* data = nullptr;
+    std::size_t size = 0;
+    [[nodiscard]] std::uint32_t operator[](std::size_t i) const noexcept { return i < size ? data[i] : 0u; }
+};
+}  // namespace sylva::shared
+
+#define SYLVA_BEGIN_NAMESPACE namespace sylva::shared {
+#define SYLVA_END_NAMESPACE }
+#define SYLVA_FN inline
+#define SYLVA_OUT(T) T&
+#define SYLVA_INOUT(T) T&
+#define SYLVA_BUF(name) const ::sylva::shared::Words& name
+#define SYLVA_LOAD(name, i) (name)[(i)]
+#define SYLVA_PASS_BUF(name) name
+#define SYLVA_PRECISE
+#define SYLVA_CONST constexpr
+
+#else  // GLSL
+
+#define SYLVA_BEGIN_NAMESPACE
+#define SYLVA_END_NAMESPACE
+#define SYLVA_FN
+#define SYLVA_OUT(T) out T
+#define SYLVA_INOUT(T) inout T
+#define SYLVA_BUF(name) uint name
+#define SYLVA_LOAD(name, i) sylva_load_##name(i)
+#define SYLVA_PASS_BUF(name) 0u
+#define SYLVA_PRECISE precise
+#define SYLVA_CONST const
+
+#endif
+
+SYLVA_BEGIN_NAMESPACE
+
+/// +infinity as a bit pattern, identical on both targets.
+SYLVA_FN float sylva_inf() { return uintBitsToFloat(0x7f800000u); }
+
+/// Minimum and maximum that never depend on how a target treats NaN or signed zero:
+/// callers guarantee non-NaN arguments; ties return the first argument.
+SYLVA_FN float sylva_min(float a, float b) { return (b < a) ? b : a; }
+SYLVA_FN float sylva_max(float a, float b) { return (b > a) ? b : a; }
+
+/// 1/x, with +0 and -0 mapped to +inf and -inf (IEEE semantics written out, so no target
+/// ever multiplies 0 by inf or flushes the sign).
+SYLVA_FN float sylva_safe_rcp(float x) {
+    if (x == 0.0f) {
+        return ((floatBitsToUint(x) & 0x80000000u) != 0u) ? -sylva_inf() : sylva_inf();
+    }
+    return 1.0f / x;
+}
+
+/// Canonicalises -0 to +0 so both targets report identical bits.
+SYLVA_FN float sylva_canon(float x) {
+    SYLVA_PRECISE float r = x + 0.0f;
+    return r;
+}
+
+SYLVA_END_NAMESPACE
+
+#endif  // SYLVA_SHARED_LANG_H
