@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Makes sure the Debian 12 packages sylva needs to build and test are installed.
+# Quiet when all are there. Otherwise: as root, installs the missing ones (fresh CI machines and
+# containers); as anyone else, prints the command to run and fails, rather than prompting for sudo.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config   # compiler and build tools
+  libglm-dev                         # math on the host (GLSL names and semantics)
+  catch2                             # unit tests (Catch2 v2)
+  libopenimageio-dev                 # images written by sylva-render
+  libvulkan-dev mesa-vulkan-drivers  # Vulkan loader + lavapipe, so GPU tests run without a GPU
+  glslang-tools glslang-dev spirv-tools  # shaders -> SPIR-V at build time, validation
+  libtbb-dev libembree-dev           # benchmark peers
+)
+
+if ! command -v dpkg-query >/dev/null; then
+  # Not Debian: we cannot check, so let CMake report what it cannot find.
+  echo "deps.sh: no dpkg-query; make sure the equivalents of these are installed: ${packages[*]}" >&2
+  exit 0
+fi
+
+missing=()
+for pkg in "${packages[@]}"; do
+  # "ii" = installed and configured; anything else (absent, removed, half-installed) is missing.
+  status=$(dpkg-query -W -f='${db:Status-Abbrev}\n' "$pkg" 2>/dev/null || true)
+  grep -q '^ii' <<<"$status" || missing+=("$pkg")
+done
+
+if ((${#missing[@]} == 0)); then
+  exit 0
+fi
+
+if ((EUID != 0)); then
+  echo "deps.sh: missing Debian packages: ${missing[*]}" >&2
+  echo "Install them with:" >&2
+  echo "  sudo apt-get install -y --no-install-recommends ${missing[*]}" >&2
+  exit 1
+fi
+
+echo "deps.sh: installing ${missing[*]}" >&2
+# Fresh images ship without package lists, so update first; noninteractive because CI has no stdin.
+apt-get update
+DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
