@@ -15,8 +15,9 @@
 //
 // The stack holds SYLVA_BIH_STACK_SIZE entries (define it before including; default the hard
 // cap SYLVA_BIH_DEPTH_CAP). Trees deeper than the stack are refused at init (status ERROR),
-// and every child index is checked against the node count, so a corrupted encoding ends the
-// iteration with status ERROR instead of reading out of bounds.
+// every child index is checked against the node count and the steps are bounded by it, so a
+// corrupted encoding ends the iteration with status ERROR instead of reading out of bounds or
+// looping.
 #ifndef SYLVA_SHARED_BIH_ITER_H
 #define SYLVA_SHARED_BIH_ITER_H
 
@@ -232,7 +233,8 @@ SYLVA_FN bool sylva_bih_next(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYL
             it.status = SYLVA_ITER_DONE;
             break;
         }
-        if (it.node >= it.hdr.node_count) {
+        // A valid tree visits each node at most once per ray: more steps mean corrupted links.
+        if (it.node >= it.hdr.node_count || it.steps >= it.hdr.node_count) {
             it.status = SYLVA_ITER_ERROR;
             break;
         }

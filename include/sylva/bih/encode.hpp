@@ -1,0 +1,202 @@
+// sylva/bih/encode.hpp -- turns a built BIH into the flat word array of
+// sylva/shared/bih_layout.h (Kinkelin sections 3.3, 5.1, 5.4), and checks untrusted encodings.
+#ifndef SYLVA_BIH_ENCODE_HPP
+#define SYLVA_BIH_ENCODE_HPP
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sylva/bih/payload.hpp"
+#include "sylva/bih/tree.hpp"
+#include "sylva/core/error.hpp"
+#include "sylva/shared/bih_layout.h"
+
+namespace sylva::bih {
+
+enum class NodeFormat {
+    Fixed16,  ///< 8-byte nodes, 16-bit fixed-point planes over the normalised root box (Table 1)
+    Float32,  ///< 12-byte nodes, float planes in world space (exact)
+};
+enum class Layout {
+    PreOrder,    ///< root, left subtree, right subtree (section 3.3)
+    TreeChunks,  ///< children stored as pairs, chunk_depth + 1 levels breadth first (section 5.4)
+};
+
+/// Encoder settings.
+struct EncodeConfig {
+    NodeFormat format = NodeFormat::Fixed16;
+    Layout layout = Layout::TreeChunks;
+    /// Tree-chunk depth: a chunk holds chunk_depth + 1 levels of both subtrees (section 5.4: 2).
+    std::uint32_t chunk_depth = 2;
+};
+
+namespace detail {
+
+inline std::uint32_t bits(float f) {
+    std::uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return u;
+}
+
+/// Conservative 16-bit fixed-point plane: `upper` bounds round up, lower bounds round down.
+inline std::uint32_t quantize(float p, float lo, float ext, bool upper) {
+    if (std::isinf(p)) return p < 0 ? SYLVA_BIH_Q_NEG_INF : SYLVA_BIH_Q_POS_INF;
+    double n = ext > 0.0f ? (double(p) - double(lo)) / double(ext) : 0.0;
+    double steps = upper ? std::ceil(n * 32768.0) : std::floor(n * 32768.0);
+    steps = std::fmin(std::fmax(steps, 0.0), 32768.0);
+    return SYLVA_BIH_Q_ZERO + static_cast<std::uint32_t>(steps);
+}
+
+/// Node positions in the flat array for the chosen layout; `link` is the index field of each
+/// inner node (see bih_layout.h, "Child addressing").
+struct Placement {
+    std::vector<std::uint32_t> pos;
+    std::vector<std::uint32_t> link;
+};
+
+/// The stored children of node n, in storage order (left first unless it is empty).
+inline int stored_children(const Node& n, std::uint32_t out[2]) {
+    if (n.leaf()) return 0;
+    if (n.single) {
+        out[0] = n.child[0];
+        return 1;
+    }
+    int k = 0;
+    for (std::uint32_t c : n.child)
+        if (c != kNoChild) out[k++] = c;
+    return k;
+}
+
+inline void place_preorder(const Tree& t, Placement& pl) {
+    std::uint32_t next = 0;
+    std::vector<std::uint32_t> stack{0};
+    while (!stack.empty()) {
+        std::uint32_t i = stack.back();
+        stack.pop_back();
+        pl.pos[i] = next++;
+        std::uint32_t kids[2];
+        int k = stored_children(t.nodes[i], kids);
+        if (k == 2) stack.push_back(kids[1]);
+        if (k >= 1) stack.push_back(kids[0]);
+    }
+    for (std::size_t i = 0; i < t.nodes.size(); ++i) {  // index field: second stored child
+        std::uint32_t kids[2];
+        pl.link[i] = stored_children(t.nodes[i], kids) == 2 ? pl.pos[kids[1]] : 0u;
+    }
+}
+
+inline void place_chunk(const Tree& t, Placement& pl, std::uint32_t parent, std::uint32_t depth,
+                        std::uint32_t& next) {
+    std::vector<std::uint32_t> level{parent}, below;
+    for (std::uint32_t lvl = 0; lvl <= depth && !level.empty(); ++lvl) {
+        below.clear();
+        for (std::uint32_t p : level) {
+            std::uint32_t kids[2];
+            int k = stored_children(t.nodes[p], kids);
+            if (k == 0) continue;
+            pl.link[p] = next;
+            for (int c = 0; c < k; ++c) {
+                pl.pos[kids[c]] = next++;
+                below.push_back(kids[c]);
+            }
+        }
+        level.swap(below);
+    }
+    for (std::uint32_t p : level) place_chunk(t, pl, p, depth, next);  // child chunks, depth first
+}
+
+inline Placement place(const Tree& t, const EncodeConfig& cfg) {
+    Placement pl{std::vector<std::uint32_t>(t.nodes.size(), 0), std::vector<std::uint32_t>(t.nodes.size(), 0)};
+    if (cfg.layout == Layout::PreOrder) {
+        place_preorder(t, pl);
+    } else {
+        std::uint32_t next = 1;
+        place_chunk(t, pl, 0, cfg.chunk_depth, next);
+    }
+    return pl;
+}
+
+inline void write_header(std::vector<std::uint32_t>& w, const Tree& t, const EncodeConfig& cfg, std::uint32_t kind) {
+    bool f32 = cfg.format == NodeFormat::Float32;
+    bool single = false;
+    for (const Node& n : t.nodes) single = single || n.single;
+    w[0] = SYLVA_BIH_MAGIC;
+    w[1] = SYLVA_BIH_VERSION;
+    w[2] = (f32 ? SYLVA_BIH_FLAG_FLOAT_NODES : 0u) | (cfg.layout == Layout::TreeChunks ? SYLVA_BIH_FLAG_CHUNKED : 0u) |
+           ((cfg.chunk_depth & 15u) << 2) | (single ? SYLVA_BIH_FLAG_SINGLE_CHILD : 0u) | ((kind & 255u) << 8);
+    w[3] = static_cast<std::uint32_t>(t.nodes.size());
+    w[4] = t.stats.max_depth;
+    w[5] = static_cast<std::uint32_t>(t.stats.leaves);
+    w[6] = static_cast<std::uint32_t>(t.stats.elements);
+    w[7] = 0;
+    vec3 ext = t.bounds.extent();
+    for (int a = 0; a < 3; ++a) {
+        w[8 + a] = bits(t.bounds.lo[a]);
+        w[11 + a] = bits(t.bounds.hi[a]);
+        w[14 + a] = bits(f32 ? 0.0f : t.bounds.lo[a]);
+        w[17 + a] = bits((f32 || !(ext[a] > 0.0f)) ? 1.0f : 1.0f / ext[a]);
+    }
+}
+
+/// Plane word(s) of an inner node: A is an upper bound unless the node has a single child.
+inline void write_planes(std::uint32_t* at, const Node& n, const Tree& t, bool f32) {
+    if (f32) {
+        at[0] = bits(n.plane[0]);
+        at[1] = bits(n.plane[1]);
+        return;
+    }
+    float lo = t.bounds.lo[n.axis], ext = t.bounds.extent()[n.axis];
+    std::uint32_t a = quantize(n.plane[0], lo, ext, !n.single);
+    std::uint32_t b = quantize(n.plane[1], lo, ext, n.single);
+    at[0] = a | (b << 16);
+}
+
+}  // namespace detail
+
+/// Encodes `tree` (built over `elements`) with leaf payloads from `payload`.
+/// Throws sylva::Error when the tree has more nodes than the 29-bit index field can address,
+/// or a payload does not fit in 62 bits.
+template <Bounded E, class P>
+    requires PayloadEncoder<P, E>
+std::vector<std::uint32_t> encode(const Tree& tree, std::span<const E> elements, const P& payload,
+                                  const EncodeConfig& cfg = {}) {
+    if (tree.nodes.empty()) throw Error("bih::encode: empty tree");
+    if (tree.nodes.size() > SYLVA_BIH_MAX_INDEX)
+        throw Error("bih::encode: " + std::to_string(tree.nodes.size()) + " nodes exceed the 29-bit node index");
+    if (cfg.layout == Layout::TreeChunks && cfg.chunk_depth > 15)
+        throw Error("bih::encode: chunk depth " + std::to_string(cfg.chunk_depth) + " is over 15");
+    bool f32 = cfg.format == NodeFormat::Float32;
+    std::uint32_t stride = f32 ? 3u : 2u;
+    std::vector<std::uint32_t> w(SYLVA_BIH_HEADER_WORDS + tree.nodes.size() * stride, 0u);
+    detail::write_header(w, tree, cfg, P::kind);
+    detail::Placement pl = detail::place(tree, cfg);
+    std::vector<E> leaf_elems;
+    for (std::size_t i = 0; i < tree.nodes.size(); ++i) {
+        const Node& n = tree.nodes[i];
+        std::uint32_t* at = &w[SYLVA_BIH_HEADER_WORDS + std::size_t{pl.pos[i]} * stride];
+        std::uint32_t& meta = at[stride - 1];
+        if (n.leaf()) {
+            leaf_elems.clear();
+            for (std::uint32_t k = 0; k < n.count; ++k) leaf_elems.push_back(elements[tree.order[n.first + k]]);
+            std::uint64_t bitsv = payload.encode(std::span<const E>(leaf_elems), n.first);
+            if (bitsv >> 62) throw Error("bih::encode: leaf payload does not fit in 62 bits");
+            at[0] = static_cast<std::uint32_t>(bitsv);
+            meta = SYLVA_BIH_LEAF | (static_cast<std::uint32_t>(bitsv >> 32) << 2);
+            continue;
+        }
+        detail::write_planes(at, n, tree, f32);
+        meta = n.axis | (n.single ? 4u : 0u) | (pl.link[i] << 3);
+    }
+    return w;
+}
+
+/// Size in bytes of an encoding.
+inline std::size_t encoded_bytes(std::span<const std::uint32_t> words) { return words.size() * 4; }
+
+}  // namespace sylva::bih
+
+#endif  // SYLVA_BIH_ENCODE_HPP

@@ -1,0 +1,131 @@
+// sylva/core/concepts.hpp -- the places where users plug in their own types.
+//
+//  * Bounded: an element with an axis-aligned box (member `bounds()` or ADL `bounds(e)`).
+//  * Intersectable: an element that reports where a ray is inside it (member
+//    `intersect(ray, range)` or ADL `intersect(e, ray, range)`), used by queries and references.
+//  * RayInteraction: an element that contributes colour and opacity to a ray (member
+//    `interact(ray, range)` or ADL `interact(e, ray, range)`), used by integrators.
+//  * PayloadEncoder: how the elements of one leaf pack into the 62 payload bits of a BIH leaf.
+//  * Executor: parallel work (see sylva/core/executor.hpp).
+#ifndef SYLVA_CORE_CONCEPTS_HPP
+#define SYLVA_CORE_CONCEPTS_HPP
+
+#include <concepts>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <span>
+
+#include "sylva/core/aabb.hpp"
+#include "sylva/core/ray.hpp"
+
+namespace sylva {
+
+/// One contribution of an element to a ray: where (t) and what (straight, not premultiplied, RGBA).
+struct Contribution {
+    float t = 0.0f;
+    vec4 rgba{0.0f};
+};
+
+namespace detail {
+template <class E>
+concept HasMemberBounds = requires(const E& e) {
+    { e.bounds() } -> std::convertible_to<Aabb>;
+};
+template <class E>
+concept HasAdlBounds = requires(const E& e) {
+    { bounds(e) } -> std::convertible_to<Aabb>;
+};
+struct BoundsFn {
+    template <class E>
+        requires HasMemberBounds<E> || HasAdlBounds<E>
+    Aabb operator()(const E& e) const {
+        if constexpr (HasMemberBounds<E>) return e.bounds();
+        else return bounds(e);
+    }
+};
+
+template <class E>
+concept HasMemberIntersect = requires(const E& e, const Ray& r, Interval i) {
+    { e.intersect(r, i) } -> std::same_as<std::optional<Interval>>;
+};
+template <class E>
+concept HasAdlIntersect = requires(const E& e, const Ray& r, Interval i) {
+    { intersect(e, r, i) } -> std::same_as<std::optional<Interval>>;
+};
+struct IntersectFn {
+    template <class E>
+        requires HasMemberIntersect<E> || HasAdlIntersect<E>
+    std::optional<Interval> operator()(const E& e, const Ray& r, Interval i) const {
+        if constexpr (HasMemberIntersect<E>) return e.intersect(r, i);
+        else return intersect(e, r, i);
+    }
+};
+
+template <class E>
+concept HasMemberInteract = requires(const E& e, const Ray& r, Interval i) {
+    { e.interact(r, i) } -> std::same_as<std::optional<Contribution>>;
+};
+template <class E>
+concept HasAdlInteract = requires(const E& e, const Ray& r, Interval i) {
+    { interact(e, r, i) } -> std::same_as<std::optional<Contribution>>;
+};
+struct InteractFn {
+    template <class E>
+        requires HasMemberInteract<E> || HasAdlInteract<E>
+    std::optional<Contribution> operator()(const E& e, const Ray& r, Interval i) const {
+        if constexpr (HasMemberInteract<E>) return e.interact(r, i);
+        else return interact(e, r, i);
+    }
+};
+
+/// The callables an Executor must accept; concepts test with these stand-ins.
+struct RangeTask {
+    void operator()(std::size_t, std::size_t) const {}
+};
+struct Task {
+    void operator()() const {}
+};
+}  // namespace detail
+
+/// The box of an element: `sylva::bounds(e)`.
+inline constexpr detail::BoundsFn bounds_of{};
+/// Where a ray is inside an element, within a range: `sylva::intersect_element(e, ray, range)`.
+inline constexpr detail::IntersectFn intersect_element{};
+/// What an element contributes to a ray: `sylva::interact_element(e, ray, range)`.
+inline constexpr detail::InteractFn interact_element{};
+
+/// An element with an axis-aligned bounding box.
+template <class E>
+concept Bounded = detail::HasMemberBounds<E> || detail::HasAdlBounds<E>;
+
+/// A bounded element whose overlap with a ray can be computed exactly.
+template <class E>
+concept Intersectable = Bounded<E> && (detail::HasMemberIntersect<E> || detail::HasAdlIntersect<E>);
+
+/// A bounded element that contributes colour and opacity to a ray (particles, RBFs, ...).
+template <class E>
+concept RayInteraction = Bounded<E> && (detail::HasMemberInteract<E> || detail::HasAdlInteract<E>);
+
+/// Packs the elements of one leaf (in leaf order; `first` is the index of the first of them in
+/// the builder's element order) into at most 62 bits. `kind` is stored in the encoding's header
+/// so decoders know what the payload means (see SYLVA_PAYLOAD_* in sylva/shared/bih_layout.h).
+template <class P, class E>
+concept PayloadEncoder = Bounded<E> && requires(const P& p, std::span<const E> leaf, std::uint32_t first) {
+    { P::kind } -> std::convertible_to<std::uint32_t>;
+    { p.encode(leaf, first) } -> std::same_as<std::uint64_t>;
+};
+
+/// Runs work in parallel: `parallel_for(begin, end, grain, f)` calls f(lo, hi) on disjoint
+/// subranges covering [begin, end) and returns when all are done; `invoke(f, g)` runs both
+/// and returns when both are done; `concurrency()` says how many run at once.
+template <class X>
+concept Executor = requires(X& x, detail::RangeTask r, detail::Task t) {
+    { x.concurrency() } -> std::convertible_to<std::size_t>;
+    x.parallel_for(std::size_t{0}, std::size_t{1}, std::size_t{1}, r);
+    x.invoke(t, t);
+};
+
+}  // namespace sylva
+
+#endif  // SYLVA_CORE_CONCEPTS_HPP

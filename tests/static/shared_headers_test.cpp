@@ -1,0 +1,6 @@
+// Every shared header compiles as C++ on its own (the GLSL side is checked by the shader build).
+#include <sylva/shared/lang.h>
+#include <sylva/shared/bih_layout.h>
+#include <sylva/shared/bih_iter.h>
+#include <sylva/shared/particles.h>
+#include <sylva/shared/camera.h>

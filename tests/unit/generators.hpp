@@ -1,0 +1,101 @@
+// Element sets and rays for tests: random, clustered and degenerate.
+#ifndef SYLVA_TESTS_GENERATORS_HPP
+#define SYLVA_TESTS_GENERATORS_HPP
+
+#include <random>
+#include <vector>
+
+#include <sylva/elements/box.hpp>
+#include <sylva/elements/sphere.hpp>
+
+namespace sylva::testing {
+
+inline std::vector<BoxElement> random_boxes(std::size_t n, std::uint32_t seed, float size = 0.05f) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f), s(0.0f, size);
+    std::vector<BoxElement> out(n);
+    for (auto& b : out) {
+        vec3 lo{u(rng), u(rng), u(rng)};
+        b.box = {lo, lo + vec3(s(rng), s(rng), s(rng))};
+    }
+    return out;
+}
+
+/// Gaussian clusters around a few centres: strongly varying density.
+inline std::vector<BoxElement> clustered_boxes(std::size_t n, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 10.0f);
+    std::normal_distribution<float> g(0.0f, 0.3f);
+    std::exponential_distribution<float> s(8.0f);
+    std::vector<vec3> centres(5);
+    for (auto& c : centres) c = {u(rng), u(rng), u(rng)};
+    std::vector<BoxElement> out(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        vec3 c = centres[i % centres.size()] + vec3(g(rng), g(rng), g(rng));
+        vec3 h{s(rng), s(rng), s(rng)};
+        out[i].box = {c - h, c + h};
+    }
+    return out;
+}
+
+/// Zero-size points, coincident copies, flat boxes and a few huge ones.
+inline std::vector<BoxElement> degenerate_boxes(std::size_t n, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::vector<BoxElement> out;
+    for (std::size_t i = 0; i < n; ++i) {
+        vec3 p{u(rng), u(rng), u(rng)};
+        switch (i % 5) {
+            case 0: out.push_back({{p, p}}); break;                                         // point
+            case 1: out.push_back({{vec3(0.5f), vec3(0.5f) + vec3(0.1f)}}); break;          // coincident
+            case 2: out.push_back({{p, p + vec3(0.2f, 0.0f, 0.2f)}}); break;                // flat in y
+            case 3: out.push_back({{vec3(std::floor(p.x * 4) / 4), vec3(std::floor(p.x * 4) / 4 + 0.25f)}}); break;
+            default: out.push_back({{p - vec3(0.01f), p + vec3(0.01f)}}); break;
+        }
+    }
+    out.push_back({{vec3(-1e4f), vec3(1e4f)}});  // huge
+    out.push_back({{vec3(-5.0f, 0.25f, 0.25f), vec3(5.0f, 0.25f, 0.75f)}});
+    return out;
+}
+
+/// Disjoint unit cells of an n^3 grid (no overlap: leaf order must be exact).
+inline std::vector<BoxElement> grid_boxes(int n) {
+    std::vector<BoxElement> out;
+    for (int z = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x)
+                if ((x * 7 + y * 3 + z * 5) % 4 != 0) out.push_back({{vec3(x, y, z), vec3(x + 1, y + 1, z + 1)}});
+    return out;
+}
+
+inline std::vector<Sphere> random_spheres(std::size_t n, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), r(0.005f, 0.05f), c(0.0f, 1.0f);
+    std::vector<Sphere> out(n);
+    for (auto& s : out) s = Sphere{{u(rng), u(rng), u(rng)}, r(rng), {c(rng), c(rng), c(rng), c(rng)}, 2.0f};
+    return out;
+}
+
+/// Rays through `box`: random origins around it (a quarter inside), random directions, and
+/// every tenth ray with one or two direction components set to +0 or -0.
+inline std::vector<Ray> random_rays(std::size_t n, const Aabb& box, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f), d(-1.0f, 1.0f);
+    vec3 lo = box.lo, ext = box.extent();
+    std::vector<Ray> out(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        bool inside = i % 4 == 0;
+        vec3 f = inside ? vec3(u(rng), u(rng), u(rng)) : vec3(u(rng), u(rng), u(rng)) * 3.0f - vec3(1.0f);
+        vec3 o = lo + f * ext;
+        vec3 target = lo + vec3(u(rng), u(rng), u(rng)) * ext;
+        vec3 dir = inside ? vec3(d(rng), d(rng), d(rng)) : target - o;
+        if (i % 10 == 1) dir.x = (i % 20 == 1) ? 0.0f : -0.0f;
+        if (i % 30 == 2) dir.y = -0.0f, dir.z = 0.0f, dir.x = (dir.x == 0.0f ? 1.0f : dir.x);
+        out[i] = {o, dir};
+    }
+    return out;
+}
+
+}  // namespace sylva::testing
+
+#endif
