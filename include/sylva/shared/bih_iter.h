@@ -13,6 +13,8 @@
 // IEEE semantics: +0 and -0 behave as +inf and -inf reciprocals, and a ray lying in a plane
 // is inside the closed half-space of both children it touches.
 //
+// In GLSL the stack lives in a private global (see SYLVA_BIH_STACK below), so a shader
+// invocation runs one BIH iterator at a time; in C++ the caller owns all of the state.
 // The stack holds SYLVA_BIH_STACK_SIZE entries (define it before including; default the hard
 // cap SYLVA_BIH_DEPTH_CAP). Trees deeper than the stack are refused at init (status ERROR),
 // every child index is checked against the node count and the steps are bounded by it, so a
@@ -34,6 +36,15 @@
 
 SYLVA_BEGIN_NAMESPACE
 
+/// The traversal stack: subtrees still to visit, with their intervals and boxes.
+struct SylvaBihStack {
+    uint st_node[SYLVA_BIH_STACK_SIZE];
+    float st_in[SYLVA_BIH_STACK_SIZE];
+    float st_out[SYLVA_BIH_STACK_SIZE];
+    vec3 st_lo[SYLVA_BIH_STACK_SIZE];
+    vec3 st_hi[SYLVA_BIH_STACK_SIZE];
+};
+
 struct SylvaBihIter {
     SylvaBihHeader hdr;
     vec3 org;           ///< ray origin in traversal space
@@ -50,12 +61,20 @@ struct SylvaBihIter {
     uint sp;
     uint steps;         ///< nodes visited so far (the traversal-cost heat map)
     uint status;
-    uint st_node[SYLVA_BIH_STACK_SIZE];
-    float st_in[SYLVA_BIH_STACK_SIZE];
-    float st_out[SYLVA_BIH_STACK_SIZE];
-    vec3 st_lo[SYLVA_BIH_STACK_SIZE];
-    vec3 st_hi[SYLVA_BIH_STACK_SIZE];
+#ifdef __cplusplus
+    SylvaBihStack stack;
+#endif
 };
+
+// GLSL copies `inout` arguments in and out on every call; a stack inside the iterator would be
+// copied at each step (hundreds of words), so in GLSL the stack is a per-invocation private
+// global instead: one live BIH iterator per shader invocation. In C++ it is part of the state.
+#ifdef __cplusplus
+#define SYLVA_BIH_STACK(it) (it).stack
+#else
+SylvaBihStack sylva_bih_stack_private;
+#define SYLVA_BIH_STACK(it) sylva_bih_stack_private
+#endif
 
 /// Ray interval inside the closed slab [lo, hi] along one axis.
 SYLVA_FN vec2 sylva_slab(float lo, float hi, float o, float r, uint par) {
@@ -131,11 +150,11 @@ SYLVA_FN void sylva_bih_push(SYLVA_INOUT(SylvaBihIter) it, uint node, vec2 t, ve
         it.status = SYLVA_ITER_ERROR;
         return;
     }
-    it.st_node[it.sp] = node;
-    it.st_in[it.sp] = t.x;
-    it.st_out[it.sp] = t.y;
-    it.st_lo[it.sp] = lo;
-    it.st_hi[it.sp] = hi;
+    SYLVA_BIH_STACK(it).st_node[it.sp] = node;
+    SYLVA_BIH_STACK(it).st_in[it.sp] = t.x;
+    SYLVA_BIH_STACK(it).st_out[it.sp] = t.y;
+    SYLVA_BIH_STACK(it).st_lo[it.sp] = lo;
+    SYLVA_BIH_STACK(it).st_hi[it.sp] = hi;
     it.sp = it.sp + 1u;
 }
 
@@ -143,12 +162,12 @@ SYLVA_FN void sylva_bih_push(SYLVA_INOUT(SylvaBihIter) it, uint node, vec2 t, ve
 SYLVA_FN bool sylva_bih_pop(SYLVA_INOUT(SylvaBihIter) it) {
     while (it.sp > 0u) {
         it.sp = it.sp - 1u;
-        if (it.st_in[it.sp] <= it.t_limit) {
-            it.node = it.st_node[it.sp];
-            it.t_in = it.st_in[it.sp];
-            it.t_out = sylva_min(it.st_out[it.sp], it.t_limit);
-            it.lo = it.st_lo[it.sp];
-            it.hi = it.st_hi[it.sp];
+        if (SYLVA_BIH_STACK(it).st_in[it.sp] <= it.t_limit) {
+            it.node = SYLVA_BIH_STACK(it).st_node[it.sp];
+            it.t_in = SYLVA_BIH_STACK(it).st_in[it.sp];
+            it.t_out = sylva_min(SYLVA_BIH_STACK(it).st_out[it.sp], it.t_limit);
+            it.lo = SYLVA_BIH_STACK(it).st_lo[it.sp];
+            it.hi = SYLVA_BIH_STACK(it).st_hi[it.sp];
             return true;
         }
     }

@@ -80,6 +80,7 @@ struct SylvaBihHeader {
     uint valid;
 };
 
+/// Three floats of the `words` buffer (in GLSL this reads `words` only; see lang.h).
 SYLVA_FN vec3 sylva_load_vec3(SYLVA_BUF(words), uint at) {
     return vec3(uintBitsToFloat(SYLVA_LOAD(words, at)), uintBitsToFloat(SYLVA_LOAD(words, at + 1u)),
                 uintBitsToFloat(SYLVA_LOAD(words, at + 2u)));

@@ -9,6 +9,9 @@
 //  * Buffers: a function that reads a buffer takes `SYLVA_BUF(name)` and reads with
 //    `SYLVA_LOAD(name, index)`. In C++ that is a bounds-safe view over 32-bit words; in GLSL the
 //    shader defines `uint sylva_load_<name>(uint i)` before including the shared header.
+//    The buffer is chosen by the parameter's NAME in GLSL, by its value in C++: a helper
+//    declared with SYLVA_BUF(words) always reads `words` on the GPU, whatever is passed. Only
+//    pass a buffer on to a helper whose parameter has the same name (the parity tests catch it).
 //  * Bit-exact host/GPU parity: use sylva_safe_rcp, canonicalise signed zero with
 //    `SYLVA_PRECISE` and `+ 0.0f`, compile host code with -ffp-contract=off, no fma.
 #ifndef SYLVA_SHARED_LANG_H

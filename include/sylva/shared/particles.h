@@ -66,7 +66,9 @@ SYLVA_FN void sylva_particle_add(SYLVA_INOUT(SylvaComposite) acc, vec3 c, float 
 }
 
 SYLVA_FN vec3 sylva_elem_center(SYLVA_BUF(elems), uint e) {
-    return sylva_load_vec3(SYLVA_PASS_BUF(elems), e * SYLVA_PARTICLE_WORDS);
+    uint at = e * SYLVA_PARTICLE_WORDS;  // not sylva_load_vec3: that one reads `words` (lang.h)
+    return vec3(uintBitsToFloat(SYLVA_LOAD(elems, at)), uintBitsToFloat(SYLVA_LOAD(elems, at + 1u)),
+                uintBitsToFloat(SYLVA_LOAD(elems, at + 2u)));
 }
 
 SYLVA_FN float sylva_elem_tc(SYLVA_BUF(elems), uint e, vec3 o, vec3 d) {

@@ -1,0 +1,113 @@
+// sylva-render: builds a BIH over particles (a file or a procedural galaxy), renders it on the
+// host or through Vulkan, writes the image, an optional traversal-cost heat map and statistics.
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <stdexcept>
+
+#include <sylva/bih/build.hpp>
+#include <sylva/bih/encode.hpp>
+#include <sylva/core/progress.hpp>
+#include <sylva/io/particles.hpp>
+#include <sylva/render/image.hpp>
+#include <sylva/render/particles.hpp>
+#ifdef SYLVA_RENDER_VULKAN
+#include <sylva/vulkan/bih.hpp>
+#endif
+
+#include "options.hpp"
+#include "stats.hpp"
+
+using namespace sylva;
+
+namespace sylva_render {
+namespace {
+
+std::vector<Sphere> load_scene(const Options& o, std::string& input) {
+    if (!o.volume.empty())
+        throw Error("--volume " + o.volume + ": volume input is not in this release yet; use --particles FILE");
+    if (o.particles.empty()) {
+        input = "procedural galaxy (" + std::to_string(o.count) + " particles)";
+        return io::synthetic_galaxy(o.count);
+    }
+    input = o.particles;
+    io::ParticleStyle style;
+    style.spacing_factor = o.radius_factor;
+    style.opacity = o.opacity;
+    return io::spheres_from_points(io::read_points(o.particles), style);
+}
+
+bih::Tree build_tree(const Options& o, std::span<const Sphere> spheres, ThreadPool& pool) {
+    bih::Config cfg;
+    cfg.empty_children = o.empty_children == "infinite" ? bih::EmptyChildren::Infinite : bih::EmptyChildren::TrimBoth;
+    cfg.max_leaf_elements = o.payload == "inline" ? 1u : 4u;
+    cfg.trim_leaves = o.payload == "inline";
+    ProgressBar bar("building BIH");
+    if (!o.quiet) cfg.on_progress = [&bar](double f) { bar.update(f); };
+    return bih::build(spheres, cfg, pool);
+}
+
+std::vector<std::uint32_t> encode_tree(const Options& o, const bih::Tree& t, std::span<const Sphere> spheres) {
+    bih::EncodeConfig ec{o.nodes == "float32" ? bih::NodeFormat::Float32 : bih::NodeFormat::Fixed16,
+                         o.layout == "preorder" ? bih::Layout::PreOrder : bih::Layout::TreeChunks, o.chunk_depth};
+    if (o.payload == "inline") return bih::encode(t, spheres, ParticlePayload{}, ec);
+    return bih::encode(t, spheres, bih::RangePayload{}, ec);
+}
+
+Frame render(const Options& o, std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
+             const CameraFrame& cam, ThreadPool& pool, std::string& device) {
+    ParticleRenderConfig rc{o.alpha_stop};
+    if (o.backend == "cpu") {
+        device = "host, " + std::to_string(pool.concurrency()) + " threads";
+        return render_particles_cpu(words, records, cam, o.width, o.height, pool, rc);
+    }
+#ifdef SYLVA_RENDER_VULKAN
+    vk::Context ctx = vk::Context::create();
+    device = ctx.describe();
+    vk::DeviceBih bih(ctx, words);
+    return vk::render_particles_vulkan(ctx, bih, records, cam, o.width, o.height, rc);
+#else
+    throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
+#endif
+}
+
+int run(const Options& o) {
+    Stats s;
+    s.backend = o.backend;
+    std::vector<Sphere> spheres = load_scene(o, s.input);
+    ThreadPool pool(o.threads);
+    bih::Tree tree = build_tree(o, spheres, pool);
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<std::uint32_t> words = encode_tree(o, tree, spheres);
+    std::vector<std::uint32_t> records;
+    if (o.payload == "range") records = pack_particles(std::span<const Sphere>(spheres), tree.order);
+    s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    vec3 from = o.view ? vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : vec3(0.4f, 0.7f, 1.0f);
+    CameraFrame cam = Camera::framing(tree.bounds, from).frame(o.width, o.height);
+    Frame f = render(o, words, records, cam, pool, s.device);
+    write_frame(o.output, f, vec3(0.0f));
+    if (!o.heatmap.empty()) s.heatmap_peak = write_heatmap(o.heatmap, f);
+    s.fill(tree, words.size() * 4 + records.size() * 4, f);
+    if (!o.quiet) s.print(std::cout);
+    if (!o.stats_json.empty()) s.write_json(o.stats_json);
+    return s.errors ? 1 : 0;
+}
+
+}  // namespace
+}  // namespace sylva_render
+
+int main(int argc, char** argv) {
+    sylva_render::Options opts;
+    try {
+        opts = sylva_render::parse(argc, argv);
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "sylva-render: " << e.what() << "\n" << sylva_render::usage();
+        return 2;
+    }
+    try {
+        return sylva_render::run(opts);
+    } catch (const std::exception& e) {
+        std::cerr << "sylva-render: " << e.what() << "\n";
+        return 1;
+    }
+}

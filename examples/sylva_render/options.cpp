@@ -1,0 +1,86 @@
+#include "options.hpp"
+
+#include <cstdlib>
+#include <sstream>
+#include <stdexcept>
+
+namespace sylva_render {
+
+const char* usage() {
+    return "usage: sylva-render [--particles FILE | --volume FILE] [--index bih] [--backend cpu|vulkan]\n"
+           "                    [--size WxH] -o OUT.png|OUT.exr [--stats-json FILE] [--heatmap FILE]\n"
+           "                    [--count N] [--radius-factor F] [--opacity A] [--alpha-stop A]\n"
+           "                    [--payload inline|range] [--nodes fixed16|float32] [--layout chunks|preorder]\n"
+           "                    [--chunk-depth D] [--empty-children trim-both|infinite] [--threads T]\n"
+           "                    [--view X,Y,Z] [--quiet]\n"
+           "With no input it renders a procedural galaxy of --count particles (default 1,000,000).\n"
+           "SYLVA_VULKAN_DEVICE=auto|cpu|gpu|INDEX|NAME picks the Vulkan device.\n";
+}
+
+namespace {
+double number(const std::string& opt, const std::string& v, double lo, double hi) {
+    char* end = nullptr;
+    double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end != '\0' || !(x >= lo && x <= hi))
+        throw std::invalid_argument(opt + ": '" + v + "' is not a number in [" + std::to_string(lo) + ", " +
+                                    std::to_string(hi) + "]");
+    return x;
+}
+std::string one_of(const std::string& opt, const std::string& v, std::initializer_list<const char*> allowed) {
+    for (const char* a : allowed)
+        if (v == a) return v;
+    std::string list;
+    for (const char* a : allowed) list += std::string(list.empty() ? "" : "|") + a;
+    throw std::invalid_argument(opt + ": '" + v + "' is not one of " + list);
+}
+void parse_size(const std::string& v, Options& o) {
+    auto x = v.find('x');
+    if (x == std::string::npos) throw std::invalid_argument("--size: '" + v + "' is not WxH");
+    o.width = static_cast<std::uint32_t>(number("--size", v.substr(0, x), 1, 16384));
+    o.height = static_cast<std::uint32_t>(number("--size", v.substr(x + 1), 1, 16384));
+}
+std::vector<float> parse_vec3(const std::string& opt, const std::string& v) {
+    std::vector<float> out;
+    std::stringstream ss(v);
+    for (std::string part; std::getline(ss, part, ',');) out.push_back(static_cast<float>(number(opt, part, -1e6, 1e6)));
+    if (out.size() != 3) throw std::invalid_argument(opt + ": '" + v + "' is not X,Y,Z");
+    return out;
+}
+}  // namespace
+
+Options parse(int argc, char** argv) {
+    Options o;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto value = [&]() -> std::string {
+            if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+            return argv[++i];
+        };
+        if (a == "--particles") o.particles = value();
+        else if (a == "--volume") o.volume = value();
+        else if (a == "--index") o.index = one_of(a, value(), {"bih"});
+        else if (a == "--backend") o.backend = one_of(a, value(), {"cpu", "vulkan"});
+        else if (a == "--size") parse_size(value(), o);
+        else if (a == "-o" || a == "--output") o.output = value();
+        else if (a == "--stats-json") o.stats_json = value();
+        else if (a == "--heatmap") o.heatmap = value();
+        else if (a == "--count") o.count = static_cast<std::size_t>(number(a, value(), 1, 1e8));
+        else if (a == "--radius-factor") o.radius_factor = static_cast<float>(number(a, value(), 1e-3, 1e3));
+        else if (a == "--opacity") o.opacity = static_cast<float>(number(a, value(), 0, 1));
+        else if (a == "--alpha-stop") o.alpha_stop = static_cast<float>(number(a, value(), 0, 2));
+        else if (a == "--payload") o.payload = one_of(a, value(), {"inline", "range"});
+        else if (a == "--nodes") o.nodes = one_of(a, value(), {"fixed16", "float32"});
+        else if (a == "--layout") o.layout = one_of(a, value(), {"chunks", "preorder"});
+        else if (a == "--chunk-depth") o.chunk_depth = static_cast<std::uint32_t>(number(a, value(), 0, 15));
+        else if (a == "--empty-children") o.empty_children = one_of(a, value(), {"trim-both", "infinite"});
+        else if (a == "--threads") o.threads = static_cast<std::uint32_t>(number(a, value(), 0, 1024));
+        else if (a == "--view") o.view = parse_vec3(a, value());
+        else if (a == "--quiet") o.quiet = true;
+        else throw std::invalid_argument("unknown option '" + a + "'");
+    }
+    if (o.output.empty()) throw std::invalid_argument("-o OUT.png is required");
+    if (!o.particles.empty() && !o.volume.empty()) throw std::invalid_argument("--particles and --volume exclude each other");
+    return o;
+}
+
+}  // namespace sylva_render

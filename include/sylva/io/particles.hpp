@@ -1,0 +1,115 @@
+// sylva/io/particles.hpp -- particle files: N consecutive little-endian float32 (x, y, z)
+// triples (the layout of ../shared/data, NAME_Nx3_float32.raw), and a procedural galaxy.
+#ifndef SYLVA_IO_PARTICLES_HPP
+#define SYLVA_IO_PARTICLES_HPP
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "sylva/core/error.hpp"
+#include "sylva/elements/sphere.hpp"
+
+namespace sylva::io {
+
+/// The N of a file name following NAME_Nx3_float32.raw, or 0 when the name does not say.
+inline std::uint64_t points_in_name(const std::string& path) {
+    std::smatch m;
+    std::string name = std::filesystem::path(path).filename().string();
+    if (std::regex_search(name, m, std::regex(R"(_(\d+)x3_float32\.raw$)"))) return std::stoull(m[1]);
+    return 0;
+}
+
+/// Reads float32 xyz triples. Throws sylva::Error naming the file when it cannot be opened, is
+/// empty, is not a whole number of triples, disagrees with the count in its name, or holds a
+/// NaN or infinite coordinate (with the point's index).
+inline std::vector<vec3> read_points(const std::string& path) {
+    std::error_code ec;
+    auto bytes = std::filesystem::file_size(path, ec);
+    if (ec) throw Error("cannot read particle file " + path + ": " + ec.message());
+    if (bytes == 0) throw Error("particle file " + path + " is empty");
+    if (bytes % 12 != 0)
+        throw Error("particle file " + path + " has " + std::to_string(bytes) +
+                    " bytes, not a whole number of float32 xyz triples (12 bytes each)");
+    std::uint64_t n = bytes / 12, named = points_in_name(path);
+    if (named && named != n)
+        throw Error("particle file " + path + " holds " + std::to_string(n) + " points but its name says " +
+                    std::to_string(named) + " (truncated or wrong file?)");
+    std::vector<vec3> pts(n);
+    std::ifstream in(path, std::ios::binary);
+    if (!in.read(reinterpret_cast<char*>(pts.data()), static_cast<std::streamsize>(bytes)))
+        throw Error("cannot read particle file " + path + ": read failed");
+    for (std::size_t i = 0; i < pts.size(); ++i)
+        if (!std::isfinite(pts[i].x) || !std::isfinite(pts[i].y) || !std::isfinite(pts[i].z))
+            throw Error("particle file " + path + ": point " + std::to_string(i) + " is NaN or infinite");
+    return pts;
+}
+
+/// Settings for turning points into particles.
+struct ParticleStyle {
+    /// Radius as a multiple of the mean spacing (cube root of box volume / N); 0 keeps `radius`.
+    float spacing_factor = 1.5f;
+    float radius = 0.01f;
+    float opacity = 0.25f;
+    float kappa = 2.0f;
+};
+
+/// Spheres at `points`, coloured by distance from their centroid (warm core, cool halo).
+inline std::vector<Sphere> spheres_from_points(const std::vector<vec3>& points, const ParticleStyle& style = {}) {
+    Aabb box;
+    vec3 mean{0.0f};
+    for (const vec3& p : points) {
+        box.extend(p);
+        mean += p / static_cast<float>(points.size());
+    }
+    vec3 e = glm::max(box.extent(), vec3(1e-6f * (1.0f + glm::length(box.extent()))));
+    float spacing = std::cbrt(e.x * e.y * e.z / static_cast<float>(points.size()));
+    float r = style.spacing_factor > 0.0f ? style.spacing_factor * spacing : style.radius;
+    float reach = 0.5f * glm::length(e);
+    std::vector<Sphere> out;
+    out.reserve(points.size());
+    for (const vec3& p : points) {
+        float t = std::clamp(glm::length(p - mean) / reach, 0.0f, 1.0f);
+        vec3 c = glm::mix(vec3(1.0f, 0.75f, 0.4f), vec3(0.3f, 0.5f, 1.0f), std::sqrt(t));
+        out.push_back({p, r, vec4(c, style.opacity), style.kappa});
+    }
+    return out;
+}
+
+/// A synthetic spiral galaxy of `n` particles: a bulge, two logarithmic arms and a thin disc,
+/// in [-1, 1]^2 x [-0.15, 0.15]. Deterministic for a seed.
+inline std::vector<Sphere> synthetic_galaxy(std::size_t n, std::uint32_t seed = 7) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> g(0.0f, 1.0f);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::vector<Sphere> out;
+    out.reserve(n);
+    float r0 = 0.9f / std::sqrt(static_cast<float>(n) / 1e6f + 1e-3f) * 0.004f;
+    for (std::size_t i = 0; i < n; ++i) {
+        float pick = u(rng);
+        vec3 p;
+        vec3 col;
+        if (pick < 0.2f) {  // bulge
+            p = vec3(g(rng), g(rng) * 0.6f, g(rng)) * 0.12f;
+            col = vec3(1.0f, 0.8f, 0.55f);
+        } else {            // arms and disc
+            float r = 0.05f + 0.95f * std::pow(u(rng), 0.7f);
+            float arm = (pick < 0.85f) ? ((i % 2) ? 0.0f : 3.14159265f) : u(rng) * 6.2831853f;
+            float theta = arm + 2.2f * std::log(r / 0.05f) + g(rng) * 0.18f;
+            p = vec3(r * std::cos(theta), g(rng) * 0.02f * (1.2f - r), r * std::sin(theta));
+            col = glm::mix(vec3(0.95f, 0.85f, 0.75f), vec3(0.45f, 0.6f, 1.0f), r);
+        }
+        out.push_back({p, r0 * (0.6f + 0.8f * u(rng)), vec4(col, 0.35f), 2.0f});
+    }
+    return out;
+}
+
+}  // namespace sylva::io
+
+#endif  // SYLVA_IO_PARTICLES_HPP

@@ -1,0 +1,96 @@
+// sylva/vulkan/bih.hpp -- the shared BIH iterator and particle integrator run as compute
+// shaders (shaders/bih_leaves.comp, shaders/particles.comp, embedded SPIR-V).
+#ifndef SYLVA_VULKAN_BIH_HPP
+#define SYLVA_VULKAN_BIH_HPP
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <span>
+#include <vector>
+
+#include "sylva/core/ray.hpp"
+#include "sylva/render/particles.hpp"
+#include "sylva/shared/bih_layout.h"
+#include "sylva/spirv/bih_leaves.h"
+#include "sylva/spirv/particles.h"
+#include "sylva/vulkan/runner.hpp"
+#include "sylva/vulkan/split_words.hpp"
+
+namespace sylva::vk {
+
+/// An encoded BIH uploaded once (split over four bindings) for repeated dispatches.
+class DeviceBih {
+public:
+    /// `shift` 0 picks the largest part the device allows; tests force small parts.
+    DeviceBih(Context& ctx, std::span<const std::uint32_t> words, std::uint32_t shift = 0)
+        : words_(split_words(ctx, words, 4, shift)), word_count_(static_cast<std::uint32_t>(words.size())) {
+        if (words.size() < SYLVA_BIH_HEADER_WORDS || words[0] != SYLVA_BIH_MAGIC)
+            throw Error("vk::DeviceBih: not an encoded BIH");
+        depth_ = words[4];
+        if (depth_ > SYLVA_BIH_DEPTH_CAP) throw Error("vk::DeviceBih: depth over the cap");
+    }
+    /// Specialization constants: split shift, and a stack sized to the tree's depth.
+    [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {words_.shift, std::max(depth_, 1u)}; }
+    [[nodiscard]] std::uint32_t word_count() const { return word_count_; }
+    [[nodiscard]] Buffer* part(std::size_t i) { return &words_.parts[i]; }
+
+private:
+    SplitWords words_;
+    std::uint32_t word_count_;
+    std::uint32_t depth_ = 0;
+};
+
+/// Leaf sequences the GPU iterator yields per ray, in the layout of shaders/bih_leaves.comp
+/// (per ray: count, status, steps, then max_leaves x (node, t0 bits, t1 bits)).
+inline std::vector<std::uint32_t> leaf_sequences(Context& ctx, DeviceBih& bih, std::span<const Ray> rays,
+                                                 std::span<const Interval> ranges, std::uint32_t max_leaves) {
+    std::vector<std::uint32_t> in(rays.size() * 8);
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+        float f[8] = {rays[i].origin.x,    rays[i].origin.y,    rays[i].origin.z, rays[i].direction.x,
+                      rays[i].direction.y, rays[i].direction.z, ranges[i].t0,     ranges[i].t1};
+        std::memcpy(&in[i * 8], f, sizeof f);
+    }
+    std::size_t stride = 3 + 3 * std::size_t{max_leaves};
+    Buffer ray_buf(ctx, in.size() * 4), out_buf(ctx, rays.size() * stride * 4);
+    ray_buf.upload(in);
+    auto constants = bih.constants();
+    Kernel kernel(ctx, spirv::bih_leaves, 6, 12, constants);
+    struct { std::uint32_t ray_count, word_count, max_leaves; } push{static_cast<std::uint32_t>(rays.size()),
+                                                                     bih.word_count(), max_leaves};
+    std::array<Buffer*, 6> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), &ray_buf, &out_buf};
+    ctx.dispatch(kernel, bind, &push, sizeof push, groups_for(rays.size(), 64));
+    std::vector<std::uint32_t> out(rays.size() * stride);
+    out_buf.download(out);
+    return out;
+}
+
+/// Renders an encoded particle BIH on the device; same output as render_particles_cpu.
+inline Frame render_particles_vulkan(Context& ctx, DeviceBih& bih, std::span<const std::uint32_t> records,
+                                     const CameraFrame& cam, std::uint32_t width, std::uint32_t height,
+                                     const ParticleRenderConfig& cfg = {}) {
+    Buffer elems(ctx, records.size() * 4), out_buf(ctx, std::size_t{width} * height * 5 * 4);
+    if (!records.empty()) elems.upload(records);
+    auto constants = bih.constants();
+    Kernel kernel(ctx, spirv::particles, 6, 64, constants);
+    struct {
+        std::array<float, 12> cam;
+        std::uint32_t width, height, word_count;
+        float alpha_stop;
+    } push{cam.floats(), width, height, bih.word_count(), cfg.alpha_stop};
+    static_assert(sizeof push == 64);
+    std::array<Buffer*, 6> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), &elems, &out_buf};
+    Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
+    f.ms = ctx.dispatch(kernel, bind, &push, sizeof push, groups_for(width, 8), groups_for(height, 8));
+    std::vector<std::uint32_t> px(std::size_t{width} * height * 5);
+    out_buf.download(px);
+    for (std::size_t i = 0; i < f.rgba.size(); ++i) {
+        std::memcpy(&f.rgba[i], &px[i * 5], 16);
+        f.steps[i] = px[i * 5 + 4];
+    }
+    return f;
+}
+
+}  // namespace sylva::vk
+
+#endif  // SYLVA_VULKAN_BIH_HPP

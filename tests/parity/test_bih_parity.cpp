@@ -1,0 +1,142 @@
+// Host vs Vulkan: the shared iterator and particle integrator give the same results.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+
+#include <sylva/bih/build.hpp>
+#include <sylva/bih/encode.hpp>
+#include <sylva/bih/query.hpp>
+#include <sylva/io/particles.hpp>
+#include <sylva/vulkan/bih.hpp>
+
+#include "generators.hpp"
+
+using namespace sylva;
+
+namespace {
+constexpr std::uint32_t kMaxLeaves = 64;
+
+std::uint32_t bits(float f) {
+    std::uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return u;
+}
+
+/// The host's leaf sequences in the layout of shaders/bih_leaves.comp.
+std::vector<std::uint32_t> host_sequences(std::span<const std::uint32_t> words, std::span<const Ray> rays,
+                                          std::span<const Interval> ranges) {
+    std::size_t stride = 3 + 3 * kMaxLeaves;
+    std::vector<std::uint32_t> out(rays.size() * stride, 0u);
+    for (std::size_t r = 0; r < rays.size(); ++r) {
+        bih::LeafIterator it(words, rays[r], ranges[r]);
+        std::uint32_t n = 0;
+        std::uint32_t* o = &out[r * stride];
+        while (auto leaf = it.next()) {
+            if (n < kMaxLeaves) {
+                o[3 + 3 * n] = leaf->node;
+                o[4 + 3 * n] = bits(leaf->t.t0);
+                o[5 + 3 * n] = bits(leaf->t.t1);
+            }
+            ++n;
+        }
+        o[0] = n;
+        o[1] = it.status();
+        o[2] = it.steps();
+    }
+    return out;
+}
+
+/// Rays and ranges: most over [0, inf), some with a finite window.
+std::pair<std::vector<Ray>, std::vector<Interval>> rays_for(const Aabb& box, std::size_t n, std::uint32_t seed) {
+    auto rays = testing::random_rays(n, box, seed);
+    std::vector<Interval> ranges(n);
+    for (std::size_t i = 0; i < n; ++i)
+        if (i % 7 == 3) ranges[i] = {0.25f, 1.5f};
+    return {rays, ranges};
+}
+
+template <class E>
+void check_sequences(vk::Context& ctx, const std::vector<E>& elems, const bih::Config& bc, const bih::EncodeConfig& ec,
+                     std::uint32_t shift) {
+    std::span<const E> es(elems);
+    bih::Tree t = bih::build(es, bc);
+    auto words = bih::encode(t, es, bih::RangePayload{}, ec);
+    auto [rays, ranges] = rays_for(t.bounds, 20000, 77);
+    vk::DeviceBih dev(ctx, words, shift);
+    auto gpu = vk::leaf_sequences(ctx, dev, rays, ranges, kMaxLeaves);
+    auto host = host_sequences(words, rays, ranges);
+    std::size_t stride = 3 + 3 * kMaxLeaves, differing = 0, leaves = 0;
+    for (std::size_t r = 0; r < rays.size(); ++r) {
+        leaves += host[r * stride];
+        bool same = std::equal(&host[r * stride], &host[r * stride] + stride, &gpu[r * stride]);
+        if (!same && differing < 3) {
+            std::string h, g;
+            for (std::size_t k = 0; k < std::min<std::size_t>(stride, 12); ++k) {
+                h += std::to_string(host[r * stride + k]) + " ";
+                g += std::to_string(gpu[r * stride + k]) + " ";
+            }
+            UNSCOPED_INFO("ray " << r << " o=(" << rays[r].origin.x << "," << rays[r].origin.y << "," << rays[r].origin.z
+                                 << ") d=(" << rays[r].direction.x << "," << rays[r].direction.y << ","
+                                 << rays[r].direction.z << ")\n host " << h << "\n gpu  " << g);
+        }
+        differing += !same;
+    }
+    CHECK(differing == 0);
+    CHECK(leaves > rays.size() / 2);
+}
+}  // namespace
+
+TEST_CASE("GPU leaf sequences equal the host's word for word", "[parity][vulkan]") {
+    vk::Context ctx = vk::Context::create();
+    INFO("device " << ctx.describe());
+    bih::Config trim, inf;
+    inf.empty_children = bih::EmptyChildren::Infinite;
+    SECTION("random boxes, fixed16, tree chunks") {
+        check_sequences(ctx, testing::random_boxes(4000, 1), trim, {bih::NodeFormat::Fixed16, bih::Layout::TreeChunks, 2}, 0);
+    }
+    SECTION("clustered boxes, float32, pre-order, +-inf planes") {
+        check_sequences(ctx, testing::clustered_boxes(4000, 2), inf, {bih::NodeFormat::Float32, bih::Layout::PreOrder, 0}, 0);
+    }
+    SECTION("degenerate boxes, fixed16, pre-order") {
+        check_sequences(ctx, testing::degenerate_boxes(3000, 3), trim, {bih::NodeFormat::Fixed16, bih::Layout::PreOrder, 0}, 0);
+    }
+    SECTION("spheres through four buffer parts of 2^13 words (the >128 MiB path)") {
+        auto spheres = testing::random_spheres(3000, 4);
+        bih::Tree t = bih::build(std::span<const Sphere>(spheres));
+        REQUIRE(SYLVA_BIH_HEADER_WORDS + 2 * t.nodes.size() > 3 * 8192);  // really spans 4 parts
+        check_sequences(ctx, spheres, trim, {bih::NodeFormat::Fixed16, bih::Layout::TreeChunks, 2}, 13);
+    }
+}
+
+TEST_CASE("GPU particle images match the host within 1e-5 and visit the same nodes", "[parity][vulkan]") {
+    vk::Context ctx = vk::Context::create();
+    ThreadPool pool(2);
+    auto spheres = io::synthetic_galaxy(50000, 5);
+    std::span<const Sphere> es(spheres);
+    bih::Tree t = bih::build(es, {}, pool);
+    for (bool inline_payload : {true, false}) {
+        INFO((inline_payload ? "inline payload" : "range payload"));
+        auto words = inline_payload ? bih::encode(t, es, ParticlePayload{}) : bih::encode(t, es, bih::RangePayload{});
+        auto records = inline_payload ? std::vector<std::uint32_t>{} : pack_particles(es, t.order);
+        CameraFrame cam = Camera::framing(t.bounds).frame(160, 120);
+        Frame host = render_particles_cpu(words, records, cam, 160, 120, pool);
+        vk::DeviceBih dev(ctx, words);
+        Frame gpu = vk::render_particles_vulkan(ctx, dev, records, cam, 160, 120);
+        float worst = 0.0f, total_alpha = 0.0f;
+        for (std::size_t i = 0; i < host.rgba.size(); ++i) {
+            for (int k = 0; k < 4; ++k) worst = std::max(worst, std::abs(host.rgba[i][k] - gpu.rgba[i][k]));
+            total_alpha += host.rgba[i].a;
+        }
+        // exp() may differ by a few ulp between the host's libm and lavapipe; everything else
+        // is bit-exact, so the step counts (the traversal) must agree exactly.
+        std::size_t step_diff = 0, first_diff = host.steps.size();
+        for (std::size_t i = 0; i < host.steps.size(); ++i)
+            if (host.steps[i] != gpu.steps[i] && step_diff++ == 0) first_diff = i;
+        INFO("pixels with different steps: " << step_diff << ", first " << first_diff << " host "
+             << (first_diff < host.steps.size() ? host.steps[first_diff] : 0) << " gpu "
+             << (first_diff < host.steps.size() ? gpu.steps[first_diff] : 0) << "; worst colour difference " << worst);
+        CHECK(worst <= 1e-5f);
+        CHECK(host.steps == gpu.steps);
+        CHECK(total_alpha > 100.0f);  // the galaxy is in view
+    }
+}
