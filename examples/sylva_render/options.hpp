@@ -19,8 +19,8 @@ struct Options {
     std::string stats_json;          ///< --stats-json FILE
     std::string heatmap;             ///< --heatmap FILE
     std::size_t count = 1000000;     ///< --count N: particles of the procedural galaxy
-    float radius_factor = 1.5f;      ///< --radius-factor F: radius in mean spacings (files)
-    float opacity = 0.25f;           ///< --opacity A (files)
+    float radius_factor = 0.25f;     ///< --radius-factor F: radius in mean spacings (files)
+    float opacity = 0.12f;           ///< --opacity A (files)
     float alpha_stop = 0.99f;        ///< --alpha-stop A: early ray termination
     std::string payload = "inline";  ///< --payload inline|range
     std::string nodes = "fixed16";   ///< --nodes fixed16|float32

@@ -54,9 +54,9 @@ inline std::vector<vec3> read_points(const std::string& path) {
 /// Settings for turning points into particles.
 struct ParticleStyle {
     /// Radius as a multiple of the mean spacing (cube root of box volume / N); 0 keeps `radius`.
-    float spacing_factor = 1.5f;
+    float spacing_factor = 0.25f;
     float radius = 0.01f;
-    float opacity = 0.25f;
+    float opacity = 0.12f;
     float kappa = 2.0f;
 };
 
