@@ -1,0 +1,152 @@
+// benchmarks/bench.hpp -- the pieces of sylva-bench: options, workloads, timing, records.
+//
+// Every case runs sylva and its peers on the same elements and the same rays in one process;
+// each timed quantity is the median of Options::runs runs.
+#ifndef SYLVA_BENCH_BENCH_HPP
+#define SYLVA_BENCH_BENCH_HPP
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <sylva/core/ray.hpp>
+#include <sylva/elements/sphere.hpp>
+
+namespace bench {
+
+// ---- command line ---------------------------------------------------------------------------
+
+struct Options {
+    std::string json;                       ///< --json FILE: where the records go ("" = nowhere)
+    std::vector<std::size_t> sizes;         ///< --sizes: element counts
+    std::size_t rays = 0;                   ///< --rays: rays per traversal case
+    std::size_t runs = 5;                   ///< --runs: timed runs per case (median reported)
+    std::size_t threads = 0;                ///< --threads: worker threads (0 = hardware)
+    double pass_seconds = -1.0;             ///< --pass-seconds: time cap per pass (0 = none)
+    bool quick = false;                     ///< --quick: small sizes and fewer rays
+    bool help = false;                      ///< --help
+
+    /// Time cap of the repeated runs of one build or encode measurement: ten passes.
+    [[nodiscard]] double build_budget_ms() const { return pass_seconds > 0.0 ? 10000.0 * pass_seconds : 0.0; }
+};
+
+/// Parses argv; throws UsageError with a message on a bad option.
+Options parse_options(int argc, char** argv);
+/// The usage text.
+std::string usage();
+
+struct UsageError {
+    std::string message;
+};
+
+// ---- workloads ------------------------------------------------------------------------------
+
+/// How sphere centres are spread over the unit cube.
+enum class Distribution { Uniform, Clustered };
+const char* name(Distribution d);
+
+/// Spheres in [0, 1]^3 whose radii shrink with n^(-1/3), so a ray crosses a few to a few tens.
+std::vector<sylva::Sphere> make_spheres(std::size_t n, Distribution d, std::uint32_t seed);
+/// Rays from a sphere of radius 2 around the cube towards uniform points inside it.
+std::vector<sylva::Ray> make_rays(std::size_t n, std::uint32_t seed);
+/// "1e6" for powers of ten, the plain number otherwise.
+std::string size_label(std::size_t n);
+
+// ---- per-ray results, compared across implementations ---------------------------------------
+
+inline constexpr std::uint32_t kNoHit = 0xFFFFFFFFu;
+
+/// Order-independent fingerprint of a set of element ids (sum of mixed ids).
+inline std::uint64_t mix_id(std::uint32_t id) {
+    std::uint64_t z = id + 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+struct FirstHits {
+    std::vector<std::uint32_t> id;  ///< element index of the nearest hit, or kNoHit
+};
+struct AllHits {
+    std::vector<std::uint32_t> count;  ///< hits per ray
+    std::vector<std::uint64_t> set;    ///< sum of mix_id over the ray's hits
+};
+std::size_t disagreements(const FirstHits& a, const FirstHits& b);
+std::size_t disagreements(const AllHits& a, const AllHits& b);
+
+/// The ids one implementation finds along a ray (any order).
+using HitList = std::function<std::vector<std::uint32_t>(const sylva::Ray&)>;
+/// Disagreeing rays not explained by a grazed sphere or a tie, re-examined in double precision.
+std::size_t unexplained(const FirstHits& got, const FirstHits& ref, const std::vector<sylva::Sphere>& spheres,
+                        std::span<const sylva::Ray> rays);
+std::size_t unexplained(const AllHits& got, const AllHits& ref, const std::vector<sylva::Sphere>& spheres,
+                        std::span<const sylva::Ray> rays, const HitList& got_list, const HitList& ref_list);
+
+// ---- timing ---------------------------------------------------------------------------------
+
+using Clock = std::chrono::steady_clock;
+inline double ms_since(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+/// Median of the samples (mean of the middle two for an even count).
+double median(std::vector<double> samples);
+
+/// Wall time of one call of f, in milliseconds.
+template <class F>
+double time_ms(F&& f) {
+    auto t0 = Clock::now();
+    f();
+    return ms_since(t0);
+}
+
+/// Samples of `run` (which returns the milliseconds it measured): `runs` of them, or fewer
+/// once they add up to `budget_ms` (0 = no budget); always at least one.
+template <class F>
+std::vector<double> samples(std::size_t runs, double budget_ms, F&& run) {
+    std::vector<double> ms;
+    double total = 0.0;
+    for (std::size_t r = 0; r < runs; ++r) {
+        ms.push_back(run());
+        total += ms.back();
+        if (budget_ms > 0.0 && total >= budget_ms) break;
+    }
+    return ms;
+}
+
+// ---- records --------------------------------------------------------------------------------
+
+/// One measured number. `peer` (not written to JSON) is the case the table compares it with.
+struct Record {
+    std::string case_name;
+    std::string impl;
+    std::string metric;
+    double value = 0.0;
+    std::string unit;
+    std::string peer;
+};
+
+class Report {
+public:
+    void add(std::string case_name, std::string impl, std::string metric, double value, std::string unit,
+             std::string peer = {});
+    [[nodiscard]] const std::vector<Record>& records() const { return records_; }
+    /// Writes all records as one JSON array; throws std::runtime_error when the file fails.
+    void write_json(const std::string& path) const;
+    /// Prints the table: sylva beside embree, with the ratio sylva / embree.
+    void print_table() const;
+
+private:
+    [[nodiscard]] const Record* find(const std::string& case_name, const std::string& impl,
+                                     const std::string& metric) const;
+    /// True when a non-embree record names `peer`'s case as its peer, for the same metric.
+    [[nodiscard]] bool paired(const Record& peer) const;
+    std::vector<Record> records_;
+};
+
+}  // namespace bench
+
+#endif  // SYLVA_BENCH_BENCH_HPP

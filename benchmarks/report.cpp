@@ -1,0 +1,120 @@
+// benchmarks/report.cpp -- the records: JSON (written by hand) and the readable table.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+
+#include "bench.hpp"
+
+namespace bench {
+
+void Report::add(std::string case_name, std::string impl, std::string metric, double value, std::string unit,
+                 std::string peer) {
+    records_.push_back(
+        {std::move(case_name), std::move(impl), std::move(metric), value, std::move(unit), std::move(peer)});
+}
+
+const Record* Report::find(const std::string& case_name, const std::string& impl, const std::string& metric) const {
+    for (const Record& r : records_)
+        if (r.case_name == case_name && r.impl == impl && r.metric == metric) return &r;
+    return nullptr;
+}
+
+bool Report::paired(const Record& peer) const {
+    for (const Record& r : records_)
+        if (r.impl != "embree" && r.peer == peer.case_name && r.metric == peer.metric) return true;
+    return false;
+}
+
+namespace {
+
+std::string json_string(const std::string& s) {
+    std::string out = "\"";
+    for (char c : s) {
+        if (c == '"' || c == '\\') {
+            out += '\\';
+            out += c;
+        } else if (static_cast<unsigned char>(c) < 0x20) {
+            char buf[8];
+            std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(c));
+            out += buf;
+        } else {
+            out += c;
+        }
+    }
+    return out + "\"";
+}
+
+/// A JSON number: integers exactly, others with 9 significant digits. NaN/inf are not JSON.
+std::string json_number(double v) {
+    if (!std::isfinite(v)) throw std::runtime_error("sylva-bench: a measurement is not finite");
+    char buf[32];
+    if (v == std::floor(v) && std::fabs(v) < 9e15)
+        std::snprintf(buf, sizeof buf, "%.0f", v);
+    else
+        std::snprintf(buf, sizeof buf, "%.9g", v);
+    return buf;
+}
+
+/// A value for the table: 4 significant digits, thousands as k/M/G for large ones.
+std::string human(double v) {
+    const char* suffix[] = {"", "k", "M", "G"};
+    int s = 0;
+    double a = std::fabs(v);
+    while (a >= 10000.0 && s < 3) {
+        a /= 1000.0;
+        v /= 1000.0;
+        ++s;
+    }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4g%s", v, suffix[s]);
+    return buf;
+}
+
+}  // namespace
+
+void Report::write_json(const std::string& path) const {
+    std::ofstream f(path);
+    if (!f) throw std::runtime_error("sylva-bench: cannot open '" + path + "' for writing");
+    f << "[\n";
+    for (std::size_t i = 0; i < records_.size(); ++i) {
+        const Record& r = records_[i];
+        f << "  {\"case\": " << json_string(r.case_name) << ", \"impl\": " << json_string(r.impl)
+          << ", \"metric\": " << json_string(r.metric) << ", \"value\": " << json_number(r.value)
+          << ", \"unit\": " << json_string(r.unit) << "}" << (i + 1 < records_.size() ? ",\n" : "\n");
+    }
+    f << "]\n";
+    f.close();
+    if (!f) throw std::runtime_error("sylva-bench: writing '" + path + "' failed");
+}
+
+void Report::print_table() const {
+    std::ostringstream out;
+    auto row = [&](const std::string& c, const std::string& m, const std::string& a, const std::string& b,
+                   const std::string& ratio, const std::string& unit) {
+        out << std::left << std::setw(40) << c << std::setw(27) << m << std::right << std::setw(11) << a
+            << std::setw(11) << b << std::setw(10) << ratio << "  " << unit << "\n";
+    };
+    row("case", "metric", "sylva", "embree", "s/e", "unit");
+    out << std::string(105, '-') << "\n";
+    for (const Record& r : records_) {
+        const Record* e = nullptr;
+        if (r.impl == "embree") {
+            if (paired(r)) continue;  // shown beside its sylva rows
+        } else if (!r.peer.empty()) {
+            e = find(r.peer, "embree", r.metric);
+        }
+        std::string name = r.impl == "sylva" || r.impl == "embree" ? r.case_name : r.case_name + " [" + r.impl + "]";
+        std::string ratio = e && e->value != 0.0 ? human(r.value / e->value) : "";
+        if (r.impl == "embree")
+            row(name, r.metric, "", human(r.value), "", r.unit);
+        else
+            row(name, r.metric, human(r.value), e ? human(e->value) : "", ratio, r.unit);
+    }
+    std::cout << out.str() << std::flush;
+}
+
+}  // namespace bench

@@ -1,0 +1,153 @@
+// benchmarks/run_sylva.cpp -- sylva's side of each case.
+#include "run_sylva.hpp"
+
+#include <atomic>
+#include <limits>
+#include <span>
+
+#include <sylva/bih/build.hpp>
+#include <sylva/bih/encode.hpp>
+#include <sylva/bih/payload.hpp>
+#include <sylva/bih/query.hpp>
+
+namespace bench {
+
+namespace bih = sylva::bih;
+using sylva::Sphere;
+
+namespace {
+
+volatile std::uint64_t g_sink = 0;
+
+double per_s(double count, double ms) { return count / (std::max(ms, 1e-6) / 1000.0); }
+
+/// Times one encoder configuration; records encode_ms and bytes; returns the last encoding.
+template <class P>
+std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sphere> es, const P& payload,
+                                       bih::NodeFormat format, const std::string& name, const Options& opt,
+                                       Report& report) {
+    std::vector<std::uint32_t> words;
+    const bih::EncodeConfig cfg{format, bih::Layout::TreeChunks, 2};
+    auto ms_all = samples(opt.runs, opt.build_budget_ms(), [&] {
+        words = {};
+        return time_ms([&] { words = bih::encode(tree, es, payload, cfg); });
+    });
+    double ms = median(ms_all);
+    report.add(name, "sylva", "encode_ms", ms, "ms");
+    report.add(name, "sylva", "runs", static_cast<double>(ms_all.size()), "runs");
+    report.add(name, "sylva", "encode_nodes_per_s", per_s(static_cast<double>(tree.nodes.size()), ms), "nodes/s");
+    report.add(name, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(words)), "bytes");
+    return words;
+}
+
+}  // namespace
+
+SylvaIndex bench_sylva_build(const std::vector<Sphere>& spheres, sylva::ThreadPool& pool, const Options& opt,
+                             Report& report, const std::string& label) {
+    std::span<const Sphere> es(spheres);
+    SylvaIndex idx;
+    auto ms = samples(opt.runs, opt.build_budget_ms(), [&] {
+        idx.tree = {};  // the previous tree is freed outside the timed region
+        return time_ms([&] { idx.tree = bih::build(es, bih::Config{}, pool); });
+    });
+    const std::string build = "build/" + label, enc = "encode/" + label;
+    double b = median(ms);
+    const bih::BuildStats& st = idx.tree.stats;
+    report.add(build, "sylva", "build_ms", b, "ms", build);
+    report.add(build, "sylva", "build_elements_per_s", per_s(static_cast<double>(spheres.size()), b), "elements/s",
+               build);
+    report.add(build, "sylva", "runs", static_cast<double>(ms.size()), "runs", build);
+    report.add(build, "sylva", "nodes", static_cast<double>(st.nodes), "nodes");
+    report.add(build, "sylva", "max_depth", st.max_depth, "levels");
+    report.add(build, "sylva", "single_child_percent", st.percent_single_child(), "%");
+    idx.fixed16 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-range", opt,
+                              report);
+    idx.float32 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Float32, enc + "/float32-range", opt,
+                              report);
+    time_encode(idx.tree, es, sylva::ParticlePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-particle", opt,
+                report);
+    report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build);
+    return idx;
+}
+
+FirstHits sylva_first_hits(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
+                           const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
+                           sylva::ThreadPool& pool) {
+    FirstHits out{std::vector<std::uint32_t>(rays.size(), kNoHit)};
+    std::span<const std::uint32_t> w(words);
+    std::span<const Sphere> es(spheres);
+    pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t i = lo; i < hi; ++i)
+            if (auto h = bih::first_hit(w, tree, es, rays[i])) out.id[i] = h->element;
+    });
+    return out;
+}
+
+AllHits sylva_all_hits(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
+                       const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
+                       sylva::ThreadPool& pool) {
+    AllHits out{std::vector<std::uint32_t>(rays.size(), 0), std::vector<std::uint64_t>(rays.size(), 0)};
+    std::span<const std::uint32_t> w(words);
+    std::span<const Sphere> es(spheres);
+    pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
+        std::vector<bih::ElementHit> hits;
+        for (std::size_t i = lo; i < hi; ++i) {
+            bih::all_hits(w, tree, es, rays[i], hits);
+            std::uint64_t set = 0;
+            for (const auto& h : hits) set += mix_id(h.element);
+            out.count[i] = static_cast<std::uint32_t>(hits.size());
+            out.set[i] = set;
+        }
+    });
+    return out;
+}
+
+HitList sylva_hit_list(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
+                       const std::vector<Sphere>& spheres) {
+    return [&words, &tree, &spheres](const sylva::Ray& ray) {
+        std::vector<bih::ElementHit> hits;
+        bih::all_hits(std::span<const std::uint32_t>(words), tree, std::span<const Sphere>(spheres), ray, hits);
+        std::vector<std::uint32_t> ids;
+        for (const auto& h : hits) ids.push_back(h.element);
+        return ids;
+    };
+}
+
+TraversalCost sylva_cost(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
+                         const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays, bool first) {
+    rays = rays.first(std::min<std::size_t>(rays.size(), 10000));
+    double steps = 0.0, leaves = 0.0;
+    for (const sylva::Ray& ray : rays) {
+        bih::LeafIterator it(std::span<const std::uint32_t>(words), ray);
+        float best = std::numeric_limits<float>::infinity();
+        while (auto leaf = it.next()) {
+            leaves += 1.0;
+            if (!first) continue;
+            auto [lo, count] = bih::decode_range(leaf->payload);
+            for (std::uint32_t k = 0; k < count; ++k) {
+                auto t = sylva::intersect_element(spheres[tree.order[lo + k]], ray, sylva::Interval{});
+                if (t && t->t0 < best) it.clip(best = t->t0);
+            }
+        }
+        steps += it.steps();
+    }
+    double n = static_cast<double>(std::max<std::size_t>(rays.size(), 1));
+    return {steps / n, leaves / n};
+}
+
+double stream_gb_per_s(const std::vector<std::uint32_t>& words, sylva::ThreadPool& pool, std::size_t runs) {
+    std::atomic<std::uint64_t> sink{0};
+    double ms = median(samples(runs, 0.0, [&] {
+        return time_ms([&] {
+            pool.parallel_for(0, words.size(), 1u << 16, [&](std::size_t lo, std::size_t hi) {
+                std::uint64_t s = 0;
+                for (std::size_t i = lo; i < hi; ++i) s += words[i];
+                sink.fetch_add(s, std::memory_order_relaxed);
+            });
+        });
+    }));
+    g_sink = sink.load();  // keeps the sums alive
+    return static_cast<double>(words.size() * 4) / (std::max(ms, 1e-6) * 1e6);
+}
+
+}  // namespace bench
