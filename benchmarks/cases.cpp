@@ -2,6 +2,7 @@
 #include "cases.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <iostream>
 
 #include "run_sylva.hpp"
@@ -15,15 +16,29 @@ namespace {
 
 double per_s(double count, double ms) { return count / (std::max(ms, 1e-6) / 1000.0); }
 
-/// Runs `pass` opt.runs times; returns the last result and stores the median time in `ms`.
-template <class F>
-auto timed(const Options& opt, double& ms, F&& pass) {
-    decltype(pass()) result;
-    ms = median(samples(opt.runs, 0.0, [&] {
-        result = {};
-        return time_ms([&] { result = pass(); });
-    }));
-    return result;
+/// One implementation's pass in a race: its case, the pass, its last result and its times.
+template <class R>
+struct Entrant {
+    std::string impl;
+    std::string case_name;
+    std::function<R()> pass;
+    const Variant* variant = nullptr;  ///< null for embree
+    R result{};
+    std::vector<double> ms{};
+};
+
+/// Runs every entrant's pass opt.runs times, interleaved (run r of each before run r + 1 of
+/// any), so that load from elsewhere on the machine hits all of them alike; records rays/s.
+template <class R>
+void race(const Context& c, std::vector<Entrant<R>>& entrants, const std::string& base, std::size_t rays) {
+    for (std::size_t r = 0; r < c.opt.runs; ++r)
+        for (auto& e : entrants) {
+            e.result = {};
+            e.ms.push_back(time_ms([&] { e.result = e.pass(); }));
+        }
+    for (auto& e : entrants)
+        c.report.add(e.case_name, e.impl, "rays_per_s", per_s(static_cast<double>(rays), median(e.ms)), "rays/s",
+                     e.impl == "embree" ? "" : base);
 }
 
 /// The first rays of the set that a traversal case traces: all of them, or (with a pass
@@ -52,9 +67,9 @@ void cross_check(const Context& c, const std::string& name, const std::string& p
                              " not explained by grazing or ties)");
 }
 
-void record_cost(const Context& c, const std::string& base, TraversalCost cost) {
-    c.report.add(base + "/fixed16", "sylva", "nodes_per_ray", cost.nodes_per_ray, "nodes/ray");
-    c.report.add(base + "/fixed16", "sylva", "leaves_per_ray", cost.leaves_per_ray, "leaves/ray");
+void record_cost(const Context& c, const std::string& name, TraversalCost cost) {
+    c.report.add(name, "sylva", "nodes_per_ray", cost.nodes_per_ray, "nodes/ray");
+    c.report.add(name, "sylva", "leaves_per_ray", cost.leaves_per_ray, "leaves/ray");
 }
 
 void build_embree(const Context& c, const std::vector<sylva::Sphere>& spheres, const std::string& label) {
@@ -78,63 +93,69 @@ void build_embree(const Context& c, const std::vector<sylva::Sphere>& spheres, c
 #endif
 }
 
+/// The entrants of a traversal case: embree (when built with it), then each sylva variant.
+/// The first entrant is the reference the others are checked against.
+template <class R, class S, class E>
+std::vector<Entrant<R>> entrants(const Context& c, const std::vector<Variant>& vs, const std::string& base,
+                                 S&& sylva_pass, E&& embree_pass) {
+    std::vector<Entrant<R>> out;
+#if SYLVA_BENCH_EMBREE
+    out.push_back({"embree", base, [&c, embree_pass] { return embree_pass(*c.embree); }});
+#else
+    (void)c, (void)embree_pass;
+#endif
+    for (const Variant& v : vs)
+        out.push_back({"sylva", base + "/" + v.name, [&v, sylva_pass] { return sylva_pass(v); }, &v});
+    return out;
+}
+
 void first_hit(const Context& c, const SylvaIndex& idx, const std::vector<sylva::Sphere>& spheres,
                const std::string& label) {
     const std::string base = "first_hit/" + label;
-    auto rays = ray_budget(c, [&](auto r) { sylva_first_hits(idx.fixed16, idx.tree, spheres, r, c.pool); });
-    const double n = static_cast<double>(rays.size());
-    double ms = 0.0;
-    FirstHits ref;
-    const char* against = "sylva fixed16";
-#if SYLVA_BENCH_EMBREE
-    ref = timed(c.opt, ms, [&] { return c.embree->first_hits(rays, c.pool); });
-    c.report.add(base, "embree", "rays_per_s", per_s(n, ms), "rays/s");
-    against = "embree";
-#endif
-    for (const char* fmt : {"fixed16", "float32"}) {
-        const auto& words = std::string(fmt) == "fixed16" ? idx.fixed16 : idx.float32;
-        FirstHits got = timed(c.opt, ms, [&] { return sylva_first_hits(words, idx.tree, spheres, rays, c.pool); });
-        const std::string name = base + "/" + fmt;
-        c.report.add(name, "sylva", "rays_per_s", per_s(n, ms), "rays/s", base);
-        if (ref.id.empty()) ref = got;  // no peer: float32 is checked against fixed16
-        cross_check(c, name, base, rays.size(), disagreements(got, ref), unexplained(got, ref, spheres, rays),
-                    against);
-    }
-    double hit = static_cast<double>(std::count_if(ref.id.begin(), ref.id.end(), [](auto i) { return i != kNoHit; }));
-    record_cost(c, base, sylva_cost(idx.fixed16, idx.tree, spheres, rays, true));
-    c.report.add(base, "workload", "rays", n, "rays");
-    c.report.add(base, "workload", "rays_hitting", hit / n, "fraction");
+    const std::vector<Variant> vs = variants(idx);
+    auto rays = ray_budget(c, [&](auto r) { sylva_first_hits(vs[0], spheres, r, c.pool); });
+    auto es = entrants<FirstHits>(
+        c, vs, base, [&](const Variant& v) { return sylva_first_hits(v, spheres, rays, c.pool); },
+        [&](const auto& peer) { return peer.first_hits(rays, c.pool); });
+    race(c, es, base, rays.size());
+    const FirstHits& ref = es.front().result;
+    std::string against = es.front().impl == "embree" ? "embree" : "sylva fixed16";
+    for (std::size_t i = 1; i < es.size(); ++i)
+        cross_check(c, es[i].case_name, base, rays.size(), disagreements(es[i].result, ref),
+                    unexplained(es[i].result, ref, spheres, rays), against.c_str());
+    auto hit = std::count_if(ref.id.begin(), ref.id.end(), [](auto i) { return i != kNoHit; });
+    for (const Variant& v : vs) record_cost(c, base + "/" + v.name, sylva_cost(v, spheres, rays, true));
+    c.report.add(base, "workload", "rays", static_cast<double>(rays.size()), "rays");
+    c.report.add(base, "workload", "rays_hitting", static_cast<double>(hit) / static_cast<double>(rays.size()),
+                 "fraction");
 }
 
 void all_hits(const Context& c, const SylvaIndex& idx, const std::vector<sylva::Sphere>& spheres,
               const std::string& label) {
     const std::string base = "all_hits/" + label;
-    auto rays = ray_budget(c, [&](auto r) { sylva_all_hits(idx.fixed16, idx.tree, spheres, r, c.pool); });
-    const double n = static_cast<double>(rays.size());
-    double ms = 0.0;
-    AllHits ref;
-    HitList ref_list = sylva_hit_list(idx.fixed16, idx.tree, spheres);
-    const char* against = "sylva fixed16";
+    const std::vector<Variant> vs = variants(idx);
+    auto rays = ray_budget(c, [&](auto r) { sylva_all_hits(vs[0], spheres, r, c.pool); });
+    auto es = entrants<AllHits>(
+        c, vs, base, [&](const Variant& v) { return sylva_all_hits(v, spheres, rays, c.pool); },
+        [&](const auto& peer) { return peer.all_hits(rays, c.pool); });
+    race(c, es, base, rays.size());
+    const AllHits& ref = es.front().result;
+    HitList ref_list = sylva_hit_list(vs[0], spheres);
+    std::string against = "sylva fixed16";
 #if SYLVA_BENCH_EMBREE
-    ref = timed(c.opt, ms, [&] { return c.embree->all_hits(rays, c.pool); });
-    c.report.add(base, "embree", "rays_per_s", per_s(n, ms), "rays/s");
     ref_list = c.embree->hit_list();
     against = "embree";
 #endif
-    for (const char* fmt : {"fixed16", "float32"}) {
-        const auto& words = std::string(fmt) == "fixed16" ? idx.fixed16 : idx.float32;
-        AllHits got = timed(c.opt, ms, [&] { return sylva_all_hits(words, idx.tree, spheres, rays, c.pool); });
-        const std::string name = base + "/" + fmt;
-        c.report.add(name, "sylva", "rays_per_s", per_s(n, ms), "rays/s", base);
-        if (ref.count.empty()) ref = got;
-        std::size_t bad = unexplained(got, ref, spheres, rays, sylva_hit_list(words, idx.tree, spheres), ref_list);
-        cross_check(c, name, base, rays.size(), disagreements(got, ref), bad, against);
+    for (std::size_t i = 1; i < es.size(); ++i) {
+        const Entrant<AllHits>& e = es[i];
+        std::size_t bad = unexplained(e.result, ref, spheres, rays, sylva_hit_list(*e.variant, spheres), ref_list);
+        cross_check(c, e.case_name, base, rays.size(), disagreements(e.result, ref), bad, against.c_str());
     }
     double hits = 0.0;
     for (auto k : ref.count) hits += k;
-    record_cost(c, base, sylva_cost(idx.fixed16, idx.tree, spheres, rays, false));
-    c.report.add(base, "workload", "rays", n, "rays");
-    c.report.add(base, "workload", "mean_hits", hits / n, "hits/ray");
+    for (const Variant& v : vs) record_cost(c, base + "/" + v.name, sylva_cost(v, spheres, rays, false));
+    c.report.add(base, "workload", "rays", static_cast<double>(rays.size()), "rays");
+    c.report.add(base, "workload", "mean_hits", hits / static_cast<double>(rays.size()), "hits/ray");
 }
 
 }  // namespace

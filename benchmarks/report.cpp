@@ -108,7 +108,7 @@ void Report::print_table() const {
             e = find(r.peer, "embree", r.metric);
         }
         std::string name = r.impl == "sylva" || r.impl == "embree" ? r.case_name : r.case_name + " [" + r.impl + "]";
-        std::string ratio = e && e->value != 0.0 ? human(r.value / e->value) : "";
+        std::string ratio = e && e->value != 0.0 && r.metric != "runs" ? human(r.value / e->value) : "";
         if (r.impl == "embree")
             row(name, r.metric, "", human(r.value), "", r.unit);
         else

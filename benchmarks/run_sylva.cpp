@@ -40,26 +40,33 @@ std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sp
     return words;
 }
 
+/// Times bih::build with `cfg`; records build_ms, elements/s and the tree's shape under `name`.
+bih::Tree time_build(std::span<const Sphere> es, const bih::Config& cfg, sylva::ThreadPool& pool, const Options& opt,
+                     Report& report, const std::string& name, const std::string& peer) {
+    bih::Tree tree;
+    auto ms = samples(opt.runs, opt.build_budget_ms(), [&] {
+        tree = {};  // the previous tree is freed outside the timed region
+        return time_ms([&] { tree = bih::build(es, cfg, pool); });
+    });
+    double b = median(ms);
+    const bih::BuildStats& st = tree.stats;
+    report.add(name, "sylva", "build_ms", b, "ms", peer);
+    report.add(name, "sylva", "build_elements_per_s", per_s(static_cast<double>(es.size()), b), "elements/s", peer);
+    report.add(name, "sylva", "runs", static_cast<double>(ms.size()), "runs", peer);
+    report.add(name, "sylva", "nodes", static_cast<double>(st.nodes), "nodes");
+    report.add(name, "sylva", "max_depth", st.max_depth, "levels");
+    report.add(name, "sylva", "single_child_percent", st.percent_single_child(), "%");
+    return tree;
+}
+
 }  // namespace
 
 SylvaIndex bench_sylva_build(const std::vector<Sphere>& spheres, sylva::ThreadPool& pool, const Options& opt,
                              Report& report, const std::string& label) {
     std::span<const Sphere> es(spheres);
-    SylvaIndex idx;
-    auto ms = samples(opt.runs, opt.build_budget_ms(), [&] {
-        idx.tree = {};  // the previous tree is freed outside the timed region
-        return time_ms([&] { idx.tree = bih::build(es, bih::Config{}, pool); });
-    });
     const std::string build = "build/" + label, enc = "encode/" + label;
-    double b = median(ms);
-    const bih::BuildStats& st = idx.tree.stats;
-    report.add(build, "sylva", "build_ms", b, "ms", build);
-    report.add(build, "sylva", "build_elements_per_s", per_s(static_cast<double>(spheres.size()), b), "elements/s",
-               build);
-    report.add(build, "sylva", "runs", static_cast<double>(ms.size()), "runs", build);
-    report.add(build, "sylva", "nodes", static_cast<double>(st.nodes), "nodes");
-    report.add(build, "sylva", "max_depth", st.max_depth, "levels");
-    report.add(build, "sylva", "single_child_percent", st.percent_single_child(), "%");
+    SylvaIndex idx;
+    idx.tree = time_build(es, bih::Config{}, pool, opt, report, build, build);
     idx.fixed16 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-range", opt,
                               report);
     idx.float32 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Float32, enc + "/float32-range", opt,
@@ -67,14 +74,26 @@ SylvaIndex bench_sylva_build(const std::vector<Sphere>& spheres, sylva::ThreadPo
     time_encode(idx.tree, es, sylva::ParticlePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-particle", opt,
                 report);
     report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build);
+    bih::Config leaf4;
+    leaf4.max_leaf_elements = 4;
+    leaf4.trim_leaves = false;
+    idx.leaf4_tree = time_build(es, leaf4, pool, opt, report, build + "/leaf4", build);
+    idx.leaf4 = bih::encode(idx.leaf4_tree, es, bih::RangePayload{});
+    report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build);
     return idx;
 }
 
-FirstHits sylva_first_hits(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
-                           const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
+std::vector<Variant> variants(const SylvaIndex& idx) {
+    return {{"fixed16", &idx.tree, &idx.fixed16},
+            {"float32", &idx.tree, &idx.float32},
+            {"fixed16-leaf4", &idx.leaf4_tree, &idx.leaf4}};
+}
+
+FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
                            sylva::ThreadPool& pool) {
     FirstHits out{std::vector<std::uint32_t>(rays.size(), kNoHit)};
-    std::span<const std::uint32_t> w(words);
+    std::span<const std::uint32_t> w(*v.words);
+    const bih::Tree& tree = *v.tree;
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         for (std::size_t i = lo; i < hi; ++i)
@@ -83,11 +102,11 @@ FirstHits sylva_first_hits(const std::vector<std::uint32_t>& words, const bih::T
     return out;
 }
 
-AllHits sylva_all_hits(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
-                       const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
+AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
                        sylva::ThreadPool& pool) {
     AllHits out{std::vector<std::uint32_t>(rays.size(), 0), std::vector<std::uint64_t>(rays.size(), 0)};
-    std::span<const std::uint32_t> w(words);
+    std::span<const std::uint32_t> w(*v.words);
+    const bih::Tree& tree = *v.tree;
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         std::vector<bih::ElementHit> hits;
@@ -102,30 +121,29 @@ AllHits sylva_all_hits(const std::vector<std::uint32_t>& words, const bih::Tree&
     return out;
 }
 
-HitList sylva_hit_list(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
-                       const std::vector<Sphere>& spheres) {
-    return [&words, &tree, &spheres](const sylva::Ray& ray) {
+HitList sylva_hit_list(const Variant& v, const std::vector<Sphere>& spheres) {
+    return [v, &spheres](const sylva::Ray& ray) {
         std::vector<bih::ElementHit> hits;
-        bih::all_hits(std::span<const std::uint32_t>(words), tree, std::span<const Sphere>(spheres), ray, hits);
+        bih::all_hits(std::span<const std::uint32_t>(*v.words), *v.tree, std::span<const Sphere>(spheres), ray, hits);
         std::vector<std::uint32_t> ids;
         for (const auto& h : hits) ids.push_back(h.element);
         return ids;
     };
 }
 
-TraversalCost sylva_cost(const std::vector<std::uint32_t>& words, const bih::Tree& tree,
-                         const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays, bool first) {
+TraversalCost sylva_cost(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
+                         bool first) {
     rays = rays.first(std::min<std::size_t>(rays.size(), 10000));
     double steps = 0.0, leaves = 0.0;
     for (const sylva::Ray& ray : rays) {
-        bih::LeafIterator it(std::span<const std::uint32_t>(words), ray);
+        bih::LeafIterator it(std::span<const std::uint32_t>(*v.words), ray);
         float best = std::numeric_limits<float>::infinity();
         while (auto leaf = it.next()) {
             leaves += 1.0;
             if (!first) continue;
             auto [lo, count] = bih::decode_range(leaf->payload);
             for (std::uint32_t k = 0; k < count; ++k) {
-                auto t = sylva::intersect_element(spheres[tree.order[lo + k]], ray, sylva::Interval{});
+                auto t = sylva::intersect_element(spheres[v.tree->order[lo + k]], ray, sylva::Interval{});
                 if (t && t->t0 < best) it.clip(best = t->t0);
             }
         }

@@ -14,31 +14,41 @@
 
 namespace bench {
 
-/// A built tree and its two RangePayload encodings (the queries' inputs).
+/// A built tree and its two RangePayload encodings (the queries' inputs), plus a second tree
+/// with up to 4 spheres per untrimmed leaf (what the default's one trimmed sphere per leaf costs).
 struct SylvaIndex {
     sylva::bih::Tree tree;
     std::vector<std::uint32_t> fixed16;
     std::vector<std::uint32_t> float32;
+    sylva::bih::Tree leaf4_tree;
+    std::vector<std::uint32_t> leaf4;  ///< fixed16 encoding of leaf4_tree
 };
 
+/// One encoding the traversal cases run: its name in case names, its tree and words.
+struct Variant {
+    std::string name;
+    const sylva::bih::Tree* tree;
+    const std::vector<std::uint32_t>* words;
+};
+/// fixed16 and float32 of the default tree, then fixed16-leaf4.
+std::vector<Variant> variants(const SylvaIndex& idx);
+
 /// Times bih::build (default Config) and the encoders; records them under "build/<label>" and
-/// "encode/<label>/...". Returns the index of the last run.
+/// "encode/<label>/...", and the leaf4 build under "build/<label>/leaf4". Returns the
+/// trees and encodings of the last runs.
 SylvaIndex bench_sylva_build(const std::vector<sylva::Sphere>& spheres, sylva::ThreadPool& pool,
                              const Options& opt, Report& report, const std::string& label);
 
 /// One pass of bih::first_hit over all rays, in parallel on `pool`.
-FirstHits sylva_first_hits(const std::vector<std::uint32_t>& words, const sylva::bih::Tree& tree,
-                           const std::vector<sylva::Sphere>& spheres, std::span<const sylva::Ray> rays,
-                           sylva::ThreadPool& pool);
+FirstHits sylva_first_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres,
+                           std::span<const sylva::Ray> rays, sylva::ThreadPool& pool);
 
 /// One pass of bih::all_hits over all rays, in parallel on `pool`.
-AllHits sylva_all_hits(const std::vector<std::uint32_t>& words, const sylva::bih::Tree& tree,
-                       const std::vector<sylva::Sphere>& spheres, std::span<const sylva::Ray> rays,
+AllHits sylva_all_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres, std::span<const sylva::Ray> rays,
                        sylva::ThreadPool& pool);
 
 /// bih::all_hits of one ray as a list of element ids (for re-examining disagreements).
-HitList sylva_hit_list(const std::vector<std::uint32_t>& words, const sylva::bih::Tree& tree,
-                       const std::vector<sylva::Sphere>& spheres);
+HitList sylva_hit_list(const Variant& v, const std::vector<sylva::Sphere>& spheres);
 
 /// Mean inner and leaf nodes the iterator visits per ray (first hit: with the clipping that
 /// bih::first_hit does), measured on up to 10000 of `rays` outside any timing.
@@ -46,8 +56,8 @@ struct TraversalCost {
     double nodes_per_ray = 0.0;
     double leaves_per_ray = 0.0;
 };
-TraversalCost sylva_cost(const std::vector<std::uint32_t>& words, const sylva::bih::Tree& tree,
-                         const std::vector<sylva::Sphere>& spheres, std::span<const sylva::Ray> rays, bool first);
+TraversalCost sylva_cost(const Variant& v, const std::vector<sylva::Sphere>& spheres,
+                         std::span<const sylva::Ray> rays, bool first);
 
 /// GB/s of a parallel streaming pass that sums `words` (median of `runs`): the rate at which
 /// this machine can read the encoding at all.
