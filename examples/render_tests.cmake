@@ -31,7 +31,8 @@ function(sylva_render_test name)
     list(APPEND defs "-DJSON=${A_JSON}" "-DJSON_KEYS=${keys}" "-DJSON_POSITIVE=${positive}")
   endif()
   add_test(NAME examples.sylva_render.${name} COMMAND ${CMAKE_COMMAND} ${defs} -P ${_check})
-  set_tests_properties(examples.sylva_render.${name} PROPERTIES SKIP_RETURN_CODE 77 ENVIRONMENT "SYLVA_VULKAN_DEVICE=cpu")
+  set_tests_properties(examples.sylva_render.${name} PROPERTIES SKIP_RETURN_CODE 77 ENVIRONMENT "SYLVA_VULKAN_DEVICE=cpu"
+                       LABELS "plugins")  # OpenImageIO loads format plugins
 endfunction()
 
 foreach(backend cpu vulkan)

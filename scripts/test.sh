@@ -21,4 +21,11 @@ fi
 bash scripts/deps.sh
 cmake -S . -B "$build" "${config[@]}" -DSYLVA_BUILD_TESTS=ON
 cmake --build "$build" -j"$(nproc)"
+if [[ $build == build-asan ]]; then
+  # LeakSanitizer reports allocations of the Vulkan driver and of OpenImageIO's plugins, which
+  # are unloaded before the report ("<unknown module>", so no suppression can name them). Our
+  # own tests run with leak detection; those that load drivers or plugins run without it.
+  ctest --test-dir "$build" --output-on-failure -j2 -LE 'vulkan|plugins' "$@"
+  ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} exec ctest --test-dir "$build" --output-on-failure -j2 -L 'vulkan|plugins' "$@"
+fi
 exec ctest --test-dir "$build" --output-on-failure -j2 "$@"

@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-#include <regex>
 #include <string>
 #include <vector>
 
@@ -20,10 +19,13 @@ namespace sylva::io {
 
 /// The N of a file name following NAME_Nx3_float32.raw, or 0 when the name does not say.
 inline std::uint64_t points_in_name(const std::string& path) {
-    std::smatch m;
+    const std::string tail = "x3_float32.raw";
     std::string name = std::filesystem::path(path).filename().string();
-    if (std::regex_search(name, m, std::regex(R"(_(\d+)x3_float32\.raw$)"))) return std::stoull(m[1]);
-    return 0;
+    if (name.size() <= tail.size() || name.compare(name.size() - tail.size(), tail.size(), tail) != 0) return 0;
+    std::size_t end = name.size() - tail.size(), begin = end;
+    while (begin > 0 && name[begin - 1] >= '0' && name[begin - 1] <= '9') --begin;
+    if (begin == end || begin == 0 || name[begin - 1] != '_' || end - begin > 18) return 0;
+    return std::stoull(name.substr(begin, end - begin));
 }
 
 /// Reads float32 xyz triples. Throws sylva::Error naming the file when it cannot be opened, is
