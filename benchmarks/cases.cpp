@@ -72,25 +72,61 @@ void record_cost(const Context& c, const std::string& name, TraversalCost cost) 
     c.report.add(name, "sylva", "leaves_per_ray", cost.leaves_per_ray, "leaves/ray");
 }
 
-void build_embree(const Context& c, const std::vector<sylva::Sphere>& spheres, const std::string& label) {
+/// One implementation's build in the build race: run() builds once and returns the ms it timed.
+struct Builder {
+    std::function<double()> run;
+    std::vector<double> ms{};
+    double total = 0.0;
+};
+
+/// Runs each builder opt.runs times, interleaved, until one of them has spent the build budget.
+void build_race(const Context& c, std::vector<Builder>& builders) {
+    for (std::size_t r = 0; r < c.opt.runs; ++r) {
+        bool spent = false;
+        for (Builder& b : builders) {
+            b.ms.push_back(b.run());
+            b.total += b.ms.back();
+            spent = spent || (c.opt.build_budget_ms() > 0.0 && b.total >= c.opt.build_budget_ms());
+        }
+        if (spent) break;
+    }
+}
+
+void record_embree_build(const Context& c, const Builder& b, const std::vector<double>& setup, std::size_t n,
+                         const std::string& build) {
 #if SYLVA_BENCH_EMBREE
-    std::vector<double> setup;
-    auto commit = samples(c.opt.runs, c.opt.build_budget_ms(), [&] {
-        EmbreePeer::BuildTimes t = c.embree->build(spheres);
-        setup.push_back(t.setup_ms);
-        return t.commit_ms;
-    });
-    const std::string build = "build/" + label;
-    double ms = median(commit);
+    double ms = median(b.ms);
     c.report.add(build, "embree", "build_ms", ms, "ms");
-    c.report.add(build, "embree", "build_elements_per_s", per_s(static_cast<double>(spheres.size()), ms),
-                 "elements/s");
-    c.report.add(build, "embree", "runs", static_cast<double>(commit.size()), "runs");
+    c.report.add(build, "embree", "build_elements_per_s", per_s(static_cast<double>(n), ms), "elements/s");
+    c.report.add(build, "embree", "runs", static_cast<double>(b.ms.size()), "runs");
     c.report.add(build, "embree", "setup_ms", median(setup), "ms");
     c.report.add(build, "embree", "bytes", static_cast<double>(c.embree->scene_bytes()), "bytes");
 #else
-    (void)c, (void)spheres, (void)label;
+    (void)c, (void)b, (void)setup, (void)n, (void)build;
 #endif
+}
+
+/// Builds the default and leaf4 BIHs and the Embree scene, interleaved; then the encodings.
+SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres, const std::string& label) {
+    SylvaIndex idx;
+    std::vector<double> setup;
+    std::vector<Builder> bs;
+    bs.push_back({[&] { return time_sylva_build(idx.tree, spheres, TreeKind::Default, c.pool); }});
+    bs.push_back({[&] { return time_sylva_build(idx.leaf4_tree, spheres, TreeKind::Leaf4, c.pool); }});
+#if SYLVA_BENCH_EMBREE
+    bs.push_back({[&] {
+        EmbreePeer::BuildTimes t = c.embree->build(spheres);
+        setup.push_back(t.setup_ms);
+        return t.commit_ms;
+    }});
+#endif
+    build_race(c, bs);
+    const std::string build = "build/" + label;
+    record_sylva_build(c.report, build, build, bs[0].ms, idx.tree);
+    record_sylva_build(c.report, build + "/leaf4", build, bs[1].ms, idx.leaf4_tree);
+    if (bs.size() > 2) record_embree_build(c, bs[2], setup, spheres.size(), build);
+    bench_sylva_encode(idx, spheres, c.opt, c.report, label);
+    return idx;
 }
 
 /// The entrants of a traversal case: embree (when built with it), then each sylva variant.
@@ -164,8 +200,7 @@ void run_case(const Context& c, std::size_t n, Distribution d, bool stream) {
     const std::string label = size_label(n) + "/" + name(d);
     std::cerr << "sylva-bench: " << label << " ..." << std::endl;
     std::vector<sylva::Sphere> spheres = make_spheres(n, d, static_cast<std::uint32_t>(n) ^ 0x5EEDu);
-    SylvaIndex idx = bench_sylva_build(spheres, c.pool, c.opt, c.report, label);
-    build_embree(c, spheres, label);
+    SylvaIndex idx = build_all(c, spheres, label);
     first_hit(c, idx, spheres, label);
     all_hits(c, idx, spheres, label);
     if (stream)

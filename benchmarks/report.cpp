@@ -91,22 +91,24 @@ void Report::write_json(const std::string& path) const {
     if (!f) throw std::runtime_error("sylva-bench: writing '" + path + "' failed");
 }
 
-void Report::print_table() const {
+void Report::print_table(bool summary) const {
     std::ostringstream out;
     auto row = [&](const std::string& c, const std::string& m, const std::string& a, const std::string& b,
                    const std::string& ratio, const std::string& unit) {
         out << std::left << std::setw(40) << c << std::setw(27) << m << std::right << std::setw(11) << a
             << std::setw(11) << b << std::setw(10) << ratio << "  " << unit << "\n";
     };
+    if (summary) out << "\nSummary: throughput, sylva / embree (s/e > 1: sylva is faster)\n";
     row("case", "metric", "sylva", "embree", "s/e", "unit");
     out << std::string(105, '-') << "\n";
     for (const Record& r : records_) {
         const Record* e = nullptr;
         if (r.impl == "embree") {
-            if (paired(r)) continue;  // shown beside its sylva rows
+            if (summary || paired(r)) continue;  // shown beside its sylva rows
         } else if (!r.peer.empty()) {
             e = find(r.peer, "embree", r.metric);
         }
+        if (summary && (!e || (r.metric != "build_elements_per_s" && r.metric != "rays_per_s"))) continue;
         std::string name = r.impl == "sylva" || r.impl == "embree" ? r.case_name : r.case_name + " [" + r.impl + "]";
         std::string ratio = e && e->value != 0.0 && r.metric != "runs" ? human(r.value / e->value) : "";
         if (r.impl == "embree")

@@ -28,7 +28,7 @@ std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sp
                                        Report& report) {
     std::vector<std::uint32_t> words;
     const bih::EncodeConfig cfg{format, bih::Layout::TreeChunks, 2};
-    auto ms_all = samples(opt.runs, opt.build_budget_ms(), [&] {
+    auto ms_all = samples(opt.runs, opt.encode_budget_ms(), [&] {
         words = {};
         return time_ms([&] { words = bih::encode(tree, es, payload, cfg); });
     });
@@ -40,47 +40,43 @@ std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sp
     return words;
 }
 
-/// Times bih::build with `cfg`; records build_ms, elements/s and the tree's shape under `name`.
-bih::Tree time_build(std::span<const Sphere> es, const bih::Config& cfg, sylva::ThreadPool& pool, const Options& opt,
-                     Report& report, const std::string& name, const std::string& peer) {
-    bih::Tree tree;
-    auto ms = samples(opt.runs, opt.build_budget_ms(), [&] {
-        tree = {};  // the previous tree is freed outside the timed region
-        return time_ms([&] { tree = bih::build(es, cfg, pool); });
-    });
+}  // namespace
+
+double time_sylva_build(bih::Tree& out, const std::vector<Sphere>& spheres, TreeKind kind, sylva::ThreadPool& pool) {
+    bih::Config cfg;
+    if (kind == TreeKind::Leaf4) {
+        cfg.max_leaf_elements = 4;
+        cfg.trim_leaves = false;
+    }
+    out = {};
+    return time_ms([&] { out = bih::build(std::span<const Sphere>(spheres), cfg, pool); });
+}
+
+void record_sylva_build(Report& report, const std::string& name, const std::string& peer, const std::vector<double>& ms,
+                        const bih::Tree& tree) {
     double b = median(ms);
     const bih::BuildStats& st = tree.stats;
     report.add(name, "sylva", "build_ms", b, "ms", peer);
-    report.add(name, "sylva", "build_elements_per_s", per_s(static_cast<double>(es.size()), b), "elements/s", peer);
+    report.add(name, "sylva", "build_elements_per_s", per_s(static_cast<double>(st.elements), b), "elements/s", peer);
     report.add(name, "sylva", "runs", static_cast<double>(ms.size()), "runs", peer);
     report.add(name, "sylva", "nodes", static_cast<double>(st.nodes), "nodes");
     report.add(name, "sylva", "max_depth", st.max_depth, "levels");
     report.add(name, "sylva", "single_child_percent", st.percent_single_child(), "%");
-    return tree;
 }
 
-}  // namespace
-
-SylvaIndex bench_sylva_build(const std::vector<Sphere>& spheres, sylva::ThreadPool& pool, const Options& opt,
-                             Report& report, const std::string& label) {
+void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, const Options& opt, Report& report,
+                        const std::string& label) {
     std::span<const Sphere> es(spheres);
     const std::string build = "build/" + label, enc = "encode/" + label;
-    SylvaIndex idx;
-    idx.tree = time_build(es, bih::Config{}, pool, opt, report, build, build);
     idx.fixed16 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-range", opt,
                               report);
     idx.float32 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Float32, enc + "/float32-range", opt,
                               report);
     time_encode(idx.tree, es, sylva::ParticlePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-particle", opt,
                 report);
-    report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build);
-    bih::Config leaf4;
-    leaf4.max_leaf_elements = 4;
-    leaf4.trim_leaves = false;
-    idx.leaf4_tree = time_build(es, leaf4, pool, opt, report, build + "/leaf4", build);
     idx.leaf4 = bih::encode(idx.leaf4_tree, es, bih::RangePayload{});
+    report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build);
     report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build);
-    return idx;
 }
 
 std::vector<Variant> variants(const SylvaIndex& idx) {

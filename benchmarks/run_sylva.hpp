@@ -33,11 +33,19 @@ struct Variant {
 /// fixed16 and float32 of the default tree, then fixed16-leaf4.
 std::vector<Variant> variants(const SylvaIndex& idx);
 
-/// Times bih::build (default Config) and the encoders; records them under "build/<label>" and
-/// "encode/<label>/...", and the leaf4 build under "build/<label>/leaf4". Returns the
-/// trees and encodings of the last runs.
-SylvaIndex bench_sylva_build(const std::vector<sylva::Sphere>& spheres, sylva::ThreadPool& pool,
-                             const Options& opt, Report& report, const std::string& label);
+/// The two builds the cases time: bih::Config{} (one trimmed sphere per leaf), and leaf4.
+enum class TreeKind { Default, Leaf4 };
+/// One timed bih::build into `out` (its previous tree is freed before the clock starts); ms.
+double time_sylva_build(sylva::bih::Tree& out, const std::vector<sylva::Sphere>& spheres, TreeKind kind,
+                        sylva::ThreadPool& pool);
+/// Records a build's median time, elements/s, runs and the tree's shape under `name`.
+void record_sylva_build(Report& report, const std::string& name, const std::string& peer,
+                        const std::vector<double>& ms, const sylva::bih::Tree& tree);
+
+/// Times the encoders over idx.tree (fixed16 and float32 with RangePayload, fixed16 with
+/// ParticlePayload) under "encode/<label>/..."; fills idx's encodings (leaf4 untimed).
+void bench_sylva_encode(SylvaIndex& idx, const std::vector<sylva::Sphere>& spheres, const Options& opt,
+                        Report& report, const std::string& label);
 
 /// One pass of bih::first_hit over all rays, in parallel on `pool`.
 FirstHits sylva_first_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres,

@@ -71,6 +71,7 @@ int run(const bench::Options& opt) {
     }
     report.add("machine", "machine", "load_average_end", load_average(), "processes");
     report.print_table();
+    report.print_table(true);
     if (!opt.json.empty()) report.write_json(opt.json);
     for (const std::string& f : failures) std::cerr << "sylva-bench: CROSS-CHECK FAILED: " << f << "\n";
     return failures.empty() ? 0 : 1;
