@@ -37,10 +37,10 @@ struct Allocation {
 };
 
 /// Creates a buffer of `bytes` in memory with `required` flags (preferring `preferred` as well),
-/// mapping it when the memory is host-visible and coherent. Returns an empty allocation when no
-/// memory type has the required flags; throws sylva::Error when allocation fails.
+/// mapping it when `map` is set and the memory is host-visible and coherent. Returns an empty
+/// allocation when no memory type has the required flags; throws sylva::Error when allocation fails.
 inline Allocation allocate(const Device& d, VkDeviceSize bytes, VkBufferUsageFlags usage,
-                           VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred) {
+                           VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred, bool map) {
     Allocation a;
     auto info = make_struct<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
     info.size = bytes;
@@ -62,7 +62,7 @@ inline Allocation allocate(const Device& d, VkDeviceSize bytes, VkBufferUsageFla
               "vkAllocateMemory of " + std::to_string(needs.size) + " bytes");
         check(vkBindBufferMemory(d.device, a.buffer, a.memory, 0), "vkBindBufferMemory");
         const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-        if ((d.memory.memoryTypes[type].propertyFlags & host) == host) {
+        if (map && (d.memory.memoryTypes[type].propertyFlags & host) == host) {
             check(vkMapMemory(d.device, a.memory, 0, VK_WHOLE_SIZE, 0, &a.mapped), "vkMapMemory");
         }
     } catch (...) {
@@ -81,7 +81,7 @@ struct Staging {
         : device(d),
           allocation(allocate(d, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                               VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                              VK_MEMORY_PROPERTY_HOST_CACHED_BIT)) {
+                              VK_MEMORY_PROPERTY_HOST_CACHED_BIT, true)) {
         if (allocation.mapped == nullptr) throw Error("no host-visible coherent memory for a staging buffer");
     }
     Staging(const Staging&) = delete;
@@ -102,27 +102,35 @@ inline void copy_on_device(Device& d, VkBuffer source, VkDeviceSize source_offse
 
 }  // namespace detail
 
+/// Where a Buffer's memory lives and how the host reaches it.
+enum class BufferMemory {
+    automatic,  ///< Device-local with staging copies on discrete GPUs; host-visible, mapped, elsewhere.
+    staged,     ///< Device-local when available, never mapped: every transfer goes through staging.
+};
+
 /// A storage buffer on the device, zero-filled on creation. On discrete GPUs it lives in
 /// device-local memory and transfers go through a staging buffer; elsewhere (integrated GPUs,
-/// lavapipe) it is host-visible coherent memory written and read directly.
+/// lavapipe) it is host-visible coherent memory written and read directly (see BufferMemory).
 /// Movable, not copyable; keeps its device alive.
 class Buffer {
 public:
     /// A buffer of `bytes` bytes. Zero bytes allocate a 4-byte dummy so the buffer can be bound.
-    Buffer(Context& context, std::size_t bytes) : device_(context.shared_device()), bytes_(bytes) {
+    Buffer(Context& context, std::size_t bytes, BufferMemory memory = BufferMemory::automatic)
+        : device_(context.shared_device()), bytes_(bytes) {
         const VkDeviceSize allocated = bytes == 0 ? 4 : (static_cast<VkDeviceSize>(bytes) + 3) / 4 * 4;
         check_allocation_size(allocated);
-        const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
-                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+        const VkBufferUsageFlags usage =
+            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
         const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-        if (context.device_type() == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU) {
-            allocation_ = detail::allocate(*device_, allocated, usage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0);
+        const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+        const bool staged =
+            memory == BufferMemory::staged || context.device_type() == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU;
+        if (staged) allocation_ = detail::allocate(*device_, allocated, usage, local, 0, false);
+        if (allocation_.buffer == VK_NULL_HANDLE && !staged) {
+            allocation_ = detail::allocate(*device_, allocated, usage, host, VK_MEMORY_PROPERTY_HOST_CACHED_BIT, true);
         }
         if (allocation_.buffer == VK_NULL_HANDLE) {
-            allocation_ = detail::allocate(*device_, allocated, usage, host, VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
-        }
-        if (allocation_.buffer == VK_NULL_HANDLE) {
-            allocation_ = detail::allocate(*device_, allocated, usage, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+            allocation_ = detail::allocate(*device_, allocated, usage, 0, local, !staged);
         }
         if (allocation_.buffer == VK_NULL_HANDLE) throw Error("no Vulkan memory type can hold a storage buffer");
         allocated_ = allocated;

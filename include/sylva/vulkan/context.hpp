@@ -42,22 +42,32 @@ struct Candidate {
 /// "cpu", "discrete-gpu", ... for messages.
 inline std::string_view device_type_name(VkPhysicalDeviceType type) noexcept {
     switch (type) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete-gpu";
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated-gpu";
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual-gpu";
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
-    default: return "other";
+        case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+            return "discrete-gpu";
+        case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+            return "integrated-gpu";
+        case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+            return "virtual-gpu";
+        case VK_PHYSICAL_DEVICE_TYPE_CPU:
+            return "cpu";
+        default:
+            return "other";
     }
 }
 
 /// Preference under "auto": discrete GPU, integrated, virtual, CPU, anything else.
 inline int device_type_rank(VkPhysicalDeviceType type) noexcept {
     switch (type) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 3;
-    default: return 4;
+        case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+            return 0;
+        case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+            return 1;
+        case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+            return 2;
+        case VK_PHYSICAL_DEVICE_TYPE_CPU:
+            return 3;
+        default:
+            return 4;
     }
 }
 
@@ -125,19 +135,23 @@ const Candidate* best_candidate(const std::vector<Candidate>& candidates, Accept
     const Candidate* best = nullptr;
     for (const Candidate& c : candidates) {
         if (!usable(c) || !accept(c)) continue;
-        if (best == nullptr || device_type_rank(c.properties.deviceType) < device_type_rank(best->properties.deviceType))
+        if (best == nullptr ||
+            device_type_rank(c.properties.deviceType) < device_type_rank(best->properties.deviceType))
             best = &c;
     }
     return best;
 }
 
-/// The candidate a request names by index: digits only, in enumeration order; nullptr otherwise.
+/// Whether a request is a device index: decimal digits only.
+inline bool is_index_request(std::string_view request) noexcept {
+    return !request.empty() && request.size() <= 9 &&
+           std::all_of(request.begin(), request.end(), [](unsigned char ch) { return std::isdigit(ch) != 0; });
+}
+
+/// The usable candidate at a decimal index in enumeration order, or nullptr.
 inline const Candidate* candidate_by_index(const std::vector<Candidate>& candidates, std::string_view request) {
-    if (request.empty() || request.size() > 9 ||
-        !std::all_of(request.begin(), request.end(), [](unsigned char ch) { return std::isdigit(ch) != 0; }))
-        return nullptr;
     const std::size_t index = std::stoul(std::string(request));
-    return index < candidates.size() ? &candidates[index] : nullptr;
+    return index < candidates.size() && usable(candidates[index]) ? &candidates[index] : nullptr;
 }
 
 /// Applies a SYLVA_VULKAN_DEVICE request ("auto", "cpu", "gpu", an index or a name substring).
@@ -145,12 +159,12 @@ inline const Candidate* select_candidate(const std::vector<Candidate>& candidate
     const std::string wanted = lower_case(request);
     if (wanted.empty() || wanted == "auto") return best_candidate(candidates, [](const Candidate&) { return true; });
     if (wanted == "cpu")
-        return best_candidate(candidates,
-                              [](const Candidate& c) { return c.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU; });
+        return best_candidate(
+            candidates, [](const Candidate& c) { return c.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU; });
     if (wanted == "gpu")
-        return best_candidate(candidates,
-                              [](const Candidate& c) { return c.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU; });
-    if (const Candidate* indexed = candidate_by_index(candidates, wanted)) return usable(*indexed) ? indexed : nullptr;
+        return best_candidate(
+            candidates, [](const Candidate& c) { return c.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU; });
+    if (is_index_request(wanted)) return candidate_by_index(candidates, wanted);
     return best_candidate(candidates, [&](const Candidate& c) {
         return lower_case(c.properties.deviceName).find(wanted) != std::string::npos;
     });
@@ -180,12 +194,12 @@ inline VkInstance create_instance() {
 
 /// The optional features of `physical` that sylva enables, as Vulkan feature structs.
 struct FeatureChain {
-    VkPhysicalDeviceFeatures2 core = make_struct<VkPhysicalDeviceFeatures2>(
-        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
-    VkPhysicalDevice16BitStorageFeatures storage16 = make_struct<VkPhysicalDevice16BitStorageFeatures>(
-        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_16BIT_STORAGE_FEATURES);
-    VkPhysicalDevice8BitStorageFeatures storage8 = make_struct<VkPhysicalDevice8BitStorageFeatures>(
-        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_8BIT_STORAGE_FEATURES);
+    VkPhysicalDeviceFeatures2 core =
+        make_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
+    VkPhysicalDevice16BitStorageFeatures storage16 =
+        make_struct<VkPhysicalDevice16BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_16BIT_STORAGE_FEATURES);
+    VkPhysicalDevice8BitStorageFeatures storage8 =
+        make_struct<VkPhysicalDevice8BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_8BIT_STORAGE_FEATURES);
 
     /// Queries support; 8-bit storage only on Vulkan 1.2 devices, where it is core.
     FeatureChain(VkPhysicalDevice physical, std::uint32_t api_version) {
@@ -207,10 +221,12 @@ struct FeatureChain {
         core.features.shaderInt64 = enabled.shader_int64 ? VK_TRUE : VK_FALSE;
         core.features.shaderInt16 = enabled.shader_int16 ? VK_TRUE : VK_FALSE;
         const VkPhysicalDevice16BitStorageFeatures storage16_query = storage16;
-        storage16 = make_struct<VkPhysicalDevice16BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_16BIT_STORAGE_FEATURES);
+        storage16 =
+            make_struct<VkPhysicalDevice16BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_16BIT_STORAGE_FEATURES);
         storage16.pNext = storage16_query.pNext;
         storage16.storageBuffer16BitAccess = enabled.storage_buffer_16bit ? VK_TRUE : VK_FALSE;
-        storage8 = make_struct<VkPhysicalDevice8BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_8BIT_STORAGE_FEATURES);
+        storage8 =
+            make_struct<VkPhysicalDevice8BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_8BIT_STORAGE_FEATURES);
         storage8.storageBuffer8BitAccess = enabled.storage_buffer_8bit ? VK_TRUE : VK_FALSE;
         return enabled;
     }
@@ -223,7 +239,8 @@ inline void create_logical_device(Device& d, const Candidate& chosen) {
     d.queue_family = static_cast<std::uint32_t>(chosen.compute_family);
     d.timestamp_valid_bits = chosen.timestamp_bits;
     vkGetPhysicalDeviceMemoryProperties(d.physical, &d.memory);
-    auto maintenance3 = make_struct<VkPhysicalDeviceMaintenance3Properties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES);
+    auto maintenance3 =
+        make_struct<VkPhysicalDeviceMaintenance3Properties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES);
     auto properties2 = make_struct<VkPhysicalDeviceProperties2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
     properties2.pNext = &maintenance3;
     vkGetPhysicalDeviceProperties2(d.physical, &properties2);
@@ -271,9 +288,9 @@ inline void create_submission_objects(Device& d) {
 inline const Candidate& require_candidate(const std::vector<Candidate>& candidates, std::string_view request) {
     if (candidates.empty()) throw Error("no Vulkan device: the Vulkan loader found no physical device");
     if (const Candidate* chosen = select_candidate(candidates, request)) return *chosen;
-    throw Error("no Vulkan device matches " + std::string(device_environment_variable) + "='" + std::string(request) +
-                "' (use auto, cpu, gpu, an index or part of a device name); devices:" +
-                describe_candidates(candidates));
+    throw Error(
+        "no Vulkan device matches " + std::string(device_environment_variable) + "='" + std::string(request) +
+        "' (use auto, cpu, gpu, an index or part of a device name); devices:" + describe_candidates(candidates));
 }
 
 }  // namespace detail
@@ -330,10 +347,10 @@ public:
                detail::version_string(api_version()) + "]";
     }
 
-    [[nodiscard]] VkInstance instance() const noexcept { return device_->instance; }              ///< Raw handle.
+    [[nodiscard]] VkInstance instance() const noexcept { return device_->instance; }               ///< Raw handle.
     [[nodiscard]] VkPhysicalDevice physical_device() const noexcept { return device_->physical; }  ///< Raw handle.
-    [[nodiscard]] VkDevice device() const noexcept { return device_->device; }                    ///< Raw handle.
-    [[nodiscard]] VkQueue queue() const noexcept { return device_->queue; }                       ///< Raw handle.
+    [[nodiscard]] VkDevice device() const noexcept { return device_->device; }                     ///< Raw handle.
+    [[nodiscard]] VkQueue queue() const noexcept { return device_->queue; }                        ///< Raw handle.
     /// The queue family index of queue().
     [[nodiscard]] std::uint32_t queue_family() const noexcept { return device_->queue_family; }
 

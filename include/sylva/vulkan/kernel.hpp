@@ -53,8 +53,8 @@ inline void create_module(const Device& d, std::span<const std::uint32_t> spirv,
 inline void create_layouts(const Device& d, std::uint32_t buffer_count, std::uint32_t push_bytes, PipelineObjects& p) {
     std::vector<VkDescriptorSetLayoutBinding> bindings(buffer_count);
     for (std::uint32_t i = 0; i < buffer_count; ++i) {
-        bindings[i] = VkDescriptorSetLayoutBinding{i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT,
-                                                   nullptr};
+        bindings[i] =
+            VkDescriptorSetLayoutBinding{i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
     }
     auto set_info = make_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
     set_info.bindingCount = buffer_count;
@@ -85,9 +85,9 @@ inline void create_layouts(const Device& d, std::uint32_t buffer_count, std::uin
 inline void create_pipeline(const Device& d, std::span<const std::uint32_t> specialization, PipelineObjects& p) {
     std::vector<VkSpecializationMapEntry> entries(specialization.size());
     for (std::size_t i = 0; i < specialization.size(); ++i) {
-        entries[i] = VkSpecializationMapEntry{static_cast<std::uint32_t>(i),
-                                              static_cast<std::uint32_t>(i * sizeof(std::uint32_t)),
-                                              sizeof(std::uint32_t)};
+        entries[i] =
+            VkSpecializationMapEntry{static_cast<std::uint32_t>(i),
+                                     static_cast<std::uint32_t>(i * sizeof(std::uint32_t)), sizeof(std::uint32_t)};
     }
     VkSpecializationInfo constants{};
     constants.mapEntryCount = static_cast<std::uint32_t>(entries.size());
@@ -154,9 +154,9 @@ public:
     [[nodiscard]] std::uint32_t storage_buffer_count() const noexcept { return buffer_count_; }
     /// How many bytes of push constants a dispatch supplies.
     [[nodiscard]] std::uint32_t push_constant_bytes() const noexcept { return push_bytes_; }
-    [[nodiscard]] VkPipeline pipeline() const noexcept { return objects_.pipeline; }              ///< Raw handle.
-    [[nodiscard]] VkPipelineLayout pipeline_layout() const noexcept { return objects_.layout; }   ///< Raw handle.
-    [[nodiscard]] VkDescriptorSet descriptor_set() const noexcept { return objects_.set; }        ///< Raw handle.
+    [[nodiscard]] VkPipeline pipeline() const noexcept { return objects_.pipeline; }             ///< Raw handle.
+    [[nodiscard]] VkPipelineLayout pipeline_layout() const noexcept { return objects_.layout; }  ///< Raw handle.
+    [[nodiscard]] VkDescriptorSet descriptor_set() const noexcept { return objects_.set; }       ///< Raw handle.
     /// The shared device state this kernel belongs to.
     [[nodiscard]] const detail::Device* device() const noexcept { return device_.get(); }
 

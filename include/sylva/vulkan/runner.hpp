@@ -119,8 +119,8 @@ inline double read_timestamps_ms(const Device& d) {
     const VkResult result = vkGetQueryPoolResults(d.device, d.timestamp_pool, 0, 2, sizeof ticks, ticks.data(),
                                                   sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT);
     if (result != VK_SUCCESS) return -1.0;
-    const std::uint64_t mask = d.timestamp_valid_bits >= 64 ? ~std::uint64_t{0}
-                                                            : (std::uint64_t{1} << d.timestamp_valid_bits) - 1;
+    const std::uint64_t mask =
+        d.timestamp_valid_bits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << d.timestamp_valid_bits) - 1;
     const std::uint64_t elapsed = (ticks[1] - ticks[0]) & mask;
     return static_cast<double>(elapsed) * static_cast<double>(d.properties.limits.timestampPeriod) * 1e-6;
 }
@@ -136,7 +136,8 @@ inline double Context::dispatch(Kernel& kernel, std::span<Buffer* const> buffers
     std::lock_guard lock(d.submit_mutex);
     detail::bind_buffers(d, kernel, buffers);
     const auto start = std::chrono::steady_clock::now();
-    d.submit_and_wait_locked([&](VkCommandBuffer cmd) { detail::record_dispatch(d, cmd, kernel, push, push_bytes, groups); });
+    d.submit_and_wait_locked(
+        [&](VkCommandBuffer cmd) { detail::record_dispatch(d, cmd, kernel, push, push_bytes, groups); });
     const std::chrono::duration<double, std::milli> host_ms = std::chrono::steady_clock::now() - start;
     const double device_ms = detail::read_timestamps_ms(d);
     return device_ms >= 0.0 ? device_ms : host_ms.count();

@@ -64,9 +64,9 @@ inline SplitWords split_words(Context& context, std::span<const std::uint32_t> w
     split.parts.reserve(parts);
     for (std::uint32_t p = 0; p < parts; ++p) {
         const std::uint64_t first = part_words * p;
-        const std::size_t count = first < words.size() ? static_cast<std::size_t>(
-                                                             std::min<std::uint64_t>(part_words, words.size() - first))
-                                                       : 0;
+        const std::size_t count =
+            first < words.size() ? static_cast<std::size_t>(std::min<std::uint64_t>(part_words, words.size() - first))
+                                 : 0;
         split.parts.emplace_back(context, count * sizeof(std::uint32_t));
         if (count > 0) split.parts.back().upload(words.subspan(static_cast<std::size_t>(first), count));
     }

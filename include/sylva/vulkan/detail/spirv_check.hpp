@@ -25,8 +25,8 @@ inline constexpr std::uint32_t spirv_execution_model_glcompute = 5u;
 
 /// What the check learned about a module.
 struct SpirvFacts {
-    std::uint32_t version_minor = 0;              ///< SPIR-V 1.<minor>.
-    bool has_compute_main = false;                ///< An OpEntryPoint GLCompute "main".
+    std::uint32_t version_minor = 0;                  ///< SPIR-V 1.<minor>.
+    bool has_compute_main = false;                    ///< An OpEntryPoint GLCompute "main".
     std::map<std::uint32_t, std::uint32_t> bindings;  ///< Variable id -> Binding decoration.
     std::map<std::uint32_t, std::uint32_t> sets;      ///< Variable id -> DescriptorSet decoration.
 };
@@ -78,7 +78,8 @@ inline SpirvFacts read_spirv_facts(std::span<const std::uint32_t> words) {
     SpirvFacts facts;
     facts.version_minor = (words[1] >> 8) & 0xffu;
     if (major != 1 || facts.version_minor > 6) {
-        throw Error("invalid SPIR-V: unknown version " + std::to_string(major) + "." + std::to_string(facts.version_minor));
+        throw Error("invalid SPIR-V: unknown version " + std::to_string(major) + "." +
+                    std::to_string(facts.version_minor));
     }
     for (std::size_t at = 5; at < words.size();) {
         const std::size_t count = words[at] >> 16;
@@ -105,7 +106,8 @@ inline void check_spirv(std::span<const std::uint32_t> words, std::uint32_t bind
     for (const auto& [id, binding] : facts.bindings) {
         const auto set = facts.sets.find(id);
         if (set != facts.sets.end() && set->second != 0) {
-            throw Error("SPIR-V uses descriptor set " + std::to_string(set->second) + "; sylva kernels bind set 0 only");
+            throw Error("SPIR-V uses descriptor set " + std::to_string(set->second) +
+                        "; sylva kernels bind set 0 only");
         }
         if (binding >= binding_count) {
             throw Error("SPIR-V uses binding " + std::to_string(binding) + " but the kernel declares " +
