@@ -139,10 +139,13 @@ SYLVA_FN uvec2 sylva_bih_payload(SYLVA_BUF(words), SylvaBihHeader h, uint i) {
     return uvec2(SYLVA_LOAD(words, at), SYLVA_LOAD(words, at + h.stride - 1u) >> 2u);
 }
 
-/// Traversal-space point back to world space.
+/// Traversal-space point back to world space: identity for float nodes, lo + p * (hi - lo) over
+/// the root box for 16-bit nodes (multiplications only: it runs once per leaf).
 SYLVA_FN vec3 sylva_bih_to_world(SylvaBihHeader h, vec3 p) {
-    return vec3(h.space_origin.x + p.x / h.space_scale.x, h.space_origin.y + p.y / h.space_scale.y,
-                h.space_origin.z + p.z / h.space_scale.z);
+    if ((h.flags & SYLVA_BIH_FLAG_FLOAT_NODES) != 0u) return p;
+    vec3 lo = h.root_lo;
+    vec3 hi = h.root_hi;
+    return vec3(lo.x + p.x * (hi.x - lo.x), lo.y + p.y * (hi.y - lo.y), lo.z + p.z * (hi.z - lo.z));
 }
 
 SYLVA_END_NAMESPACE
