@@ -3,6 +3,7 @@
 #ifndef SYLVA_BIH_QUERY_HPP
 #define SYLVA_BIH_QUERY_HPP
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -62,6 +63,11 @@ struct ElementHit {
     friend bool operator==(const ElementHit&, const ElementHit&) = default;
 };
 
+/// The order of hits everywhere: entry t first, then element index (deterministic ties).
+inline bool hit_before(const ElementHit& a, const ElementHit& b) {
+    return a.t.t0 < b.t.t0 || (a.t.t0 == b.t.t0 && a.element < b.element);
+}
+
 /// The nearest element hit in `range` (smallest entry t; ties: smallest element index).
 /// `words` must be encoded with RangePayload over `tree`.
 template <Intersectable E>
@@ -75,8 +81,9 @@ std::optional<ElementHit> first_hit(std::span<const std::uint32_t> words, const 
             std::uint32_t e = tree.order[first + k];
             auto t = intersect_element(elements[e], ray, range);
             if (!t) continue;
-            if (!best || t->t0 < best->t.t0 || (t->t0 == best->t.t0 && e < best->element)) {
-                best = ElementHit{e, *t};
+            ElementHit h{e, *t};
+            if (!best || hit_before(h, *best)) {
+                best = h;
                 leaves.clip(t->t0);  // overlapping siblings may still hold an earlier hit
             }
         }
@@ -91,9 +98,6 @@ void all_hits(std::span<const std::uint32_t> words, const Tree& tree, std::span<
               std::vector<ElementHit>& out, Interval range = {}) {
     out.clear();
     LeafIterator leaves(words, ray, range);
-    auto before = [](const ElementHit& a, const ElementHit& b) {
-        return a.t.t0 < b.t.t0 || (a.t.t0 == b.t.t0 && a.element < b.element);
-    };
     while (auto leaf = leaves.next()) {
         auto [first, count] = decode_range(leaf->payload);
         for (std::uint32_t k = 0; k < count; ++k) {
@@ -103,7 +107,7 @@ void all_hits(std::span<const std::uint32_t> words, const Tree& tree, std::span<
             ElementHit h{e, *t};
             std::size_t i = out.size();
             out.push_back(h);
-            while (i > 0 && before(h, out[i - 1])) {
+            while (i > 0 && hit_before(h, out[i - 1])) {
                 out[i] = out[i - 1];
                 --i;
             }
@@ -118,9 +122,7 @@ std::vector<ElementHit> brute_force_hits(std::span<const E> elements, const Ray&
     std::vector<ElementHit> hits;
     for (std::uint32_t e = 0; e < elements.size(); ++e)
         if (auto t = intersect_element(elements[e], ray, range)) hits.push_back({e, *t});
-    std::sort(hits.begin(), hits.end(), [](const ElementHit& a, const ElementHit& b) {
-        return a.t.t0 < b.t.t0 || (a.t.t0 == b.t.t0 && a.element < b.element);
-    });
+    std::sort(hits.begin(), hits.end(), hit_before);
     return hits;
 }
 
