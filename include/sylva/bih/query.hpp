@@ -8,6 +8,7 @@
 #include <limits>
 #include <optional>
 #include <span>
+#include <tuple>
 #include <vector>
 
 #include "sylva/bih/payload.hpp"
@@ -68,24 +69,50 @@ inline bool hit_before(const ElementHit& a, const ElementHit& b) {
     return a.t.t0 < b.t.t0 || (a.t.t0 == b.t.t0 && a.element < b.element);
 }
 
+/// Iterates the element hits of one ray in leaf order (RangePayload encodings): each leaf's
+/// elements are intersected exactly; misses are skipped. Not sorted across overlapping leaves.
+template <Intersectable E>
+class HitIterator {
+public:
+    HitIterator(std::span<const std::uint32_t> words, const Tree& tree, std::span<const E> elements, const Ray& ray,
+                Interval range = {})
+        : leaves_(words, ray, range), tree_(tree), elements_(elements), ray_(ray), range_(range) {}
+    /// The next element hit, or nothing when the traversal is over.
+    std::optional<ElementHit> next() {
+        for (;;) {
+            while (k_ < count_) {
+                std::uint32_t e = tree_.order[first_ + k_++];
+                if (auto t = intersect_element(elements_[e], ray_, range_)) return ElementHit{e, *t};
+            }
+            auto leaf = leaves_.next();
+            if (!leaf) return std::nullopt;
+            std::tie(first_, count_) = decode_range(leaf->payload);
+            k_ = 0;
+        }
+    }
+    /// Prunes leaves entered after t (elements of the current leaf are still reported).
+    void clip(float t) { leaves_.clip(t); }
+
+private:
+    LeafIterator leaves_;
+    const Tree& tree_;
+    std::span<const E> elements_;
+    Ray ray_;
+    Interval range_;
+    std::uint32_t first_ = 0, count_ = 0, k_ = 0;
+};
+
 /// The nearest element hit in `range` (smallest entry t; ties: smallest element index).
 /// `words` must be encoded with RangePayload over `tree`.
 template <Intersectable E>
 std::optional<ElementHit> first_hit(std::span<const std::uint32_t> words, const Tree& tree,
                                     std::span<const E> elements, const Ray& ray, Interval range = {}) {
     std::optional<ElementHit> best;
-    LeafIterator leaves(words, ray, range);
-    while (auto leaf = leaves.next()) {
-        auto [first, count] = decode_range(leaf->payload);
-        for (std::uint32_t k = 0; k < count; ++k) {
-            std::uint32_t e = tree.order[first + k];
-            auto t = intersect_element(elements[e], ray, range);
-            if (!t) continue;
-            ElementHit h{e, *t};
-            if (!best || hit_before(h, *best)) {
-                best = h;
-                leaves.clip(t->t0);  // overlapping siblings may still hold an earlier hit
-            }
+    HitIterator<E> hits(words, tree, elements, ray, range);
+    while (auto h = hits.next()) {
+        if (!best || hit_before(*h, *best)) {
+            best = h;
+            hits.clip(h->t.t0);  // overlapping siblings may still hold an earlier hit
         }
     }
     return best;
@@ -97,22 +124,12 @@ template <Intersectable E>
 void all_hits(std::span<const std::uint32_t> words, const Tree& tree, std::span<const E> elements, const Ray& ray,
               std::vector<ElementHit>& out, Interval range = {}) {
     out.clear();
-    LeafIterator leaves(words, ray, range);
-    while (auto leaf = leaves.next()) {
-        auto [first, count] = decode_range(leaf->payload);
-        for (std::uint32_t k = 0; k < count; ++k) {
-            std::uint32_t e = tree.order[first + k];
-            auto t = intersect_element(elements[e], ray, range);
-            if (!t) continue;
-            ElementHit h{e, *t};
-            std::size_t i = out.size();
-            out.push_back(h);
-            while (i > 0 && hit_before(h, out[i - 1])) {
-                out[i] = out[i - 1];
-                --i;
-            }
-            out[i] = h;
-        }
+    HitIterator<E> hits(words, tree, elements, ray, range);
+    while (auto h = hits.next()) {
+        std::size_t i = out.size();
+        out.push_back(*h);
+        for (; i > 0 && hit_before(*h, out[i - 1]); --i) out[i] = out[i - 1];
+        out[i] = *h;
     }
 }
 
