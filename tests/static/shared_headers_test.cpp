@@ -4,3 +4,4 @@
 #include <sylva/shared/bih_iter.h>
 #include <sylva/shared/particles.h>
 #include <sylva/shared/camera.h>
+#include <sylva/shared/voxel.h>
