@@ -12,6 +12,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers  # Vulkan loader + lavapipe, so GPU tests run without a GPU
   glslang-tools glslang-dev spirv-tools  # shaders -> SPIR-V at build time, validation
   libtbb-dev libembree-dev           # benchmark peers
+  zlib1g-dev                         # gzip-encoded NRRD volumes (optional)
 )
 
 if ! command -v dpkg-query >/dev/null; then
