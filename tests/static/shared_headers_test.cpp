@@ -5,3 +5,8 @@
 #include <sylva/shared/particles.h>
 #include <sylva/shared/camera.h>
 #include <sylva/shared/voxel.h>
+#include <sylva/shared/tf.h>
+#include <sylva/shared/grid_sample.h>
+#include <sylva/shared/dvr_common.h>
+#include <sylva/shared/dvr.h>
+#include <sylva/shared/bih_dvr.h>

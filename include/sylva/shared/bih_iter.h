@@ -6,6 +6,10 @@
 //   uint leaf; float t0; float t1;
 //   while (sylva_bih_next(it, nodes, leaf, t0, t1)) { ... it.leaf_lo / it.leaf_hi ... }
 //
+// sylva_bih_next is sylva_bih_advance (pop, bounds checks, step count) then sylva_bih_visit
+// (hand out a leaf or descend); variants that skip nodes between the two build on them (e.g.
+// iso-value culling by node ranges, sylva/shared/bih_dvr.h).
+//
 // Leaves come in order of traversal: front to back, except where two sibling boxes overlap
 // (Kinkelin section 4): a leaf of the second child may then start before the last leaf of the
 // first child ended. Intervals are closed: a ray that only touches a box visits it.
@@ -240,6 +244,48 @@ SYLVA_FN void sylva_bih_descend_single(SYLVA_INOUT(SylvaBihIter) it, uint axis, 
     }
 }
 
+/// Moves to the next node to visit (popping the stack when needed) and counts the step.
+/// False when the traversal is over (status DONE) or the encoding is corrupt (status ERROR).
+SYLVA_FN bool sylva_bih_advance(SYLVA_INOUT(SylvaBihIter) it) {
+    if (it.node == SYLVA_NO_NODE && !sylva_bih_pop(it)) {
+        it.status = SYLVA_ITER_DONE;
+        return false;
+    }
+    // A valid tree visits each node at most once per ray: more steps mean corrupted links.
+    if (it.node >= it.hdr.node_count || it.steps >= it.hdr.node_count) {
+        it.status = SYLVA_ITER_ERROR;
+        return false;
+    }
+    it.steps = it.steps + 1u;
+    return true;
+}
+
+/// Visits it.node: a leaf is handed out through leaf/t0/t1 (true); an inner node is descended
+/// into (false; the outputs are left as they are).
+SYLVA_FN bool sylva_bih_visit(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYLVA_INOUT(uint) leaf,
+                              SYLVA_INOUT(float) t0, SYLVA_INOUT(float) t1) {
+    uint n = it.node;
+    uint meta = sylva_bih_meta(SYLVA_PASS_BUF(words), it.hdr, n);
+    uint type = meta & 3u;
+    if (type == SYLVA_BIH_LEAF) {
+        leaf = n;
+        t0 = it.t_in;
+        t1 = it.t_out;
+        it.leaf_lo = it.lo;
+        it.leaf_hi = it.hi;
+        it.node = SYLVA_NO_NODE;
+        return true;
+    }
+    vec2 planes = sylva_bih_planes(SYLVA_PASS_BUF(words), it.hdr, n);
+    if ((meta & 4u) != 0u) {
+        uint child = ((it.hdr.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u) ? (meta >> 3u) : n + 1u;
+        sylva_bih_descend_single(it, type, child, planes);
+    } else {
+        sylva_bih_descend(it, type, sylva_bih_children(it.hdr, n, meta, planes), planes);
+    }
+    return false;
+}
+
 /// Advances to the next leaf hit by the ray. Returns false when the traversal is over
 /// (status DONE) or the encoding was found corrupt (status ERROR).
 SYLVA_FN bool sylva_bih_next(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYLVA_OUT(uint) leaf,
@@ -248,35 +294,8 @@ SYLVA_FN bool sylva_bih_next(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYL
     t0 = 0.0f;
     t1 = 0.0f;
     while (it.status == SYLVA_ITER_RUNNING) {
-        if (it.node == SYLVA_NO_NODE && !sylva_bih_pop(it)) {
-            it.status = SYLVA_ITER_DONE;
-            break;
-        }
-        // A valid tree visits each node at most once per ray: more steps mean corrupted links.
-        if (it.node >= it.hdr.node_count || it.steps >= it.hdr.node_count) {
-            it.status = SYLVA_ITER_ERROR;
-            break;
-        }
-        it.steps = it.steps + 1u;
-        uint n = it.node;
-        uint meta = sylva_bih_meta(SYLVA_PASS_BUF(words), it.hdr, n);
-        uint type = meta & 3u;
-        if (type == SYLVA_BIH_LEAF) {
-            leaf = n;
-            t0 = it.t_in;
-            t1 = it.t_out;
-            it.leaf_lo = it.lo;
-            it.leaf_hi = it.hi;
-            it.node = SYLVA_NO_NODE;
-            return true;
-        }
-        vec2 planes = sylva_bih_planes(SYLVA_PASS_BUF(words), it.hdr, n);
-        if ((meta & 4u) != 0u) {
-            uint child = ((it.hdr.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u) ? (meta >> 3u) : n + 1u;
-            sylva_bih_descend_single(it, type, child, planes);
-        } else {
-            sylva_bih_descend(it, type, sylva_bih_children(it.hdr, n, meta, planes), planes);
-        }
+        if (!sylva_bih_advance(it)) break;
+        if (sylva_bih_visit(it, SYLVA_PASS_BUF(words), leaf, t0, t1)) return true;
     }
     return false;
 }

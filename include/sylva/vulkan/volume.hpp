@@ -1,0 +1,138 @@
+// sylva/vulkan/volume.hpp -- the volume integrators of sylva/render/volume.hpp as compute
+// shaders (shaders/dvr.comp, shaders/bih_dvr.comp, embedded SPIR-V): same parameters, same
+// Frame. Leaf sequences of voxel BIHs come from vk::leaf_sequences (bih_leaves.comp does not
+// look at payloads).
+//
+//   auto ctx = sylva::vk::Context::create();
+//   sylva::vk::DeviceGrid grid(ctx, sylva::GridWords::from(density));
+//   sylva::Frame ref = sylva::vk::render_dvr_vulkan(ctx, grid, params);
+//   sylva::vk::DeviceVoxelBih bih(ctx, sylva::VoxelBihView{words, ranges, spacing, box});
+//   sylva::Frame img = sylva::vk::render_bih_dvr_vulkan(ctx, bih, params);
+#ifndef SYLVA_VULKAN_VOLUME_HPP
+#define SYLVA_VULKAN_VOLUME_HPP
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <span>
+#include <vector>
+
+#include "sylva/render/volume.hpp"
+#include "sylva/spirv/bih_dvr.h"
+#include "sylva/spirv/dvr.h"
+#include "sylva/vulkan/bih.hpp"
+#include "sylva/vulkan/runner.hpp"
+#include "sylva/vulkan/split_words.hpp"
+
+namespace sylva::vk {
+
+/// A density grid uploaded once (split over four bindings, so grids over 128 MiB work).
+class DeviceGrid {
+public:
+    /// `shift` 0 picks the largest part the device allows; tests force small parts.
+    DeviceGrid(Context& ctx, const GridWords& grid, std::uint32_t shift = 0)
+        : words_(split_words(ctx, checked(grid), 4, shift)), dims_(grid.dims), spacing_(grid.spacing) {}
+    [[nodiscard]] volume::Dims dims() const { return dims_; }
+    [[nodiscard]] vec3 spacing() const { return spacing_; }
+    [[nodiscard]] std::uint32_t shift() const { return words_.shift; }
+    [[nodiscard]] Buffer* part(std::size_t i) { return &words_.parts[i]; }
+
+private:
+    static std::span<const std::uint32_t> checked(const GridWords& g) {
+        if (g.words.size() != volume::voxel_count(g.dims))
+            throw Error("vk::DeviceGrid: " + std::to_string(g.words.size()) + " words do not match the dimensions");
+        return g.words;
+    }
+    SplitWords words_;
+    volume::Dims dims_;
+    vec3 spacing_;
+};
+
+/// A voxel BIH and its optional node-range buffer uploaded once (each split over four bindings).
+class DeviceVoxelBih {
+public:
+    /// Checks the header (voxel payload) and, when ranges are given, one word per node.
+    DeviceVoxelBih(Context& ctx, const VoxelBihView& view, std::uint32_t shift = 0, std::uint32_t ranges_shift = 0)
+        : header_(sylva::detail::voxel_bih_header(view.words, view.words.size())),
+          bih_(ctx, view.words, shift),
+          ranges_(split_words(ctx, checked_ranges(view, header_), 4, ranges_shift)),
+          word_count_(view.words.size()),
+          range_count_(view.ranges.size()),
+          voxel_size_(view.voxel_size),
+          grid_box_(view.grid_box) {}
+
+    /// The parameter block for `p` (same checks as bih_dvr_params on the host).
+    [[nodiscard]] std::vector<std::uint32_t> params(const VolumeRenderParams& p) const {
+        return sylva::detail::pack_bih_dvr(header_, word_count_, voxel_size_, grid_box_, range_count_, p);
+    }
+    /// Specialization constants of bih_dvr.comp: BIH split shift, stack size, ranges shift.
+    [[nodiscard]] std::array<std::uint32_t, 3> constants() const {
+        auto c = bih_.constants();
+        return {c[0], c[1], ranges_.shift};
+    }
+    [[nodiscard]] Buffer* part(std::size_t i) { return bih_.part(i); }
+    [[nodiscard]] Buffer* range_part(std::size_t i) { return &ranges_.parts[i]; }
+
+private:
+    static std::span<const std::uint32_t> checked_ranges(const VoxelBihView& v, const shared::SylvaBihHeader& h) {
+        if (!v.ranges.empty() && v.ranges.size() != h.node_count)
+            throw Error("vk::DeviceVoxelBih: " + std::to_string(v.ranges.size()) + " node-range words for " +
+                        std::to_string(h.node_count) + " nodes");
+        return v.ranges;
+    }
+    shared::SylvaBihHeader header_;
+    DeviceBih bih_;
+    SplitWords ranges_;
+    std::size_t word_count_;
+    std::size_t range_count_;
+    vec3 voxel_size_;
+    Aabb grid_box_;
+};
+
+namespace detail {
+
+/// Dispatches an 8x8-tiled image kernel and reads back 5 words per pixel into a Frame.
+inline Frame run_image_kernel(Context& ctx, Kernel& kernel, std::span<Buffer* const> inputs, Buffer& out,
+                              std::uint32_t width, std::uint32_t height) {
+    Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
+    f.ms = ctx.dispatch(kernel, inputs, nullptr, 0, groups_for(width, 8), groups_for(height, 8));
+    std::vector<std::uint32_t> px(std::size_t{width} * height * 5);
+    out.download(px);
+    for (std::size_t i = 0; i < f.rgba.size(); ++i) {
+        std::memcpy(&f.rgba[i], &px[i * 5], 16);
+        f.steps[i] = px[i * 5 + 4];
+    }
+    return f;
+}
+
+}  // namespace detail
+
+/// Renders `grid` with the reference marcher on the device; same output as render_dvr_cpu.
+inline Frame render_dvr_vulkan(Context& ctx, DeviceGrid& grid, const VolumeRenderParams& p) {
+    std::vector<std::uint32_t> params = sylva::detail::pack_dvr(grid.dims(), grid.spacing(), p);
+    Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
+    tf.upload(p.tf);
+    pb.upload(params);
+    std::array<std::uint32_t, 1> constants{grid.shift()};
+    Kernel kernel(ctx, spirv::dvr, 7, 0, constants);
+    std::array<Buffer*, 7> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), &tf, &pb, &out};
+    return detail::run_image_kernel(ctx, kernel, bind, out, p.width, p.height);
+}
+
+/// Renders a voxel BIH in mode p.mode on the device; same output as render_bih_dvr_cpu.
+inline Frame render_bih_dvr_vulkan(Context& ctx, DeviceVoxelBih& bih, const VolumeRenderParams& p) {
+    std::vector<std::uint32_t> params = bih.params(p);
+    Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
+    tf.upload(p.tf);
+    pb.upload(params);
+    auto constants = bih.constants();
+    Kernel kernel(ctx, spirv::bih_dvr, 11, 0, constants);
+    std::array<Buffer*, 11> bind{bih.part(0),       bih.part(1),       bih.part(2),       bih.part(3),
+                                 bih.range_part(0), bih.range_part(1), bih.range_part(2), bih.range_part(3),
+                                 &tf,               &pb,               &out};
+    return detail::run_image_kernel(ctx, kernel, bind, out, p.width, p.height);
+}
+
+}  // namespace sylva::vk
+
+#endif  // SYLVA_VULKAN_VOLUME_HPP

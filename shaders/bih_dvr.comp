@@ -1,0 +1,50 @@
+#version 460
+// BIH-based volume rendering (sylva/shared/bih_dvr.h): single-sample, multi-sample and iso
+// modes over a voxel-cuboid BIH, the mode chosen by the parameter block.
+//
+// Bindings: 0-3 the encoded BIH (SYLVA_SPLIT_WORDS); 4-7 the node-range buffer, one word per
+// encoded node (SYLVA_SPLIT_WORDS; dummies when iso culling is off); 8 the transfer function
+// (RGBA8 words); 9 the parameter block (sylva/shared/dvr_common.h); 10 output, 5 words per
+// pixel: premultiplied R, G, B, alpha (float bits) and the iterator's step count
+// (0xFFFFFFFF: corrupted encoding).
+// Specialization constants: 0 split shift of the BIH, 1 stack entries (>= the tree's max
+// depth), 2 split shift of the node ranges.
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
+layout(constant_id = 1) const int STACK_SIZE = 64;
+layout(constant_id = 2) const uint RANGES_SHIFT = 25u;
+#define SYLVA_BIH_STACK_SIZE STACK_SIZE
+
+#include "sylva/shared/split_words.glsl"
+SYLVA_SPLIT_WORDS(words, 0, SPLIT_SHIFT)
+SYLVA_SPLIT_WORDS(ranges, 4, RANGES_SHIFT)
+layout(std430, binding = 8) readonly buffer Tf { uint tf_words[]; };
+layout(std430, binding = 9) readonly buffer Params { uint param_words[]; };
+layout(std430, binding = 10) writeonly buffer Pixels { uint pixels[]; };
+
+uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
+uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+
+#include "sylva/shared/camera.h"
+#include "sylva/shared/bih_dvr.h"
+
+void main() {
+    SylvaDvrParams p = sylva_dvr_params(0u);
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= p.width || px.y >= p.height) return;
+    vec3 eye = sylva_param_v3(0u, 0u);
+    vec3 w = sylva_param_v3(0u, 3u);
+    vec3 u = sylva_param_v3(0u, 6u);
+    vec3 v = sylva_param_v3(0u, 9u);
+    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, p.width, p.height);
+    uint steps;
+    uint status;
+    vec4 c = sylva_bih_volume_ray(0u, 0u, 0u, p, eye, d, 0.0f, sylva_inf(), steps, status);
+    uint at = (px.y * p.width + px.x) * 5u;
+    pixels[at] = floatBitsToUint(c.x);
+    pixels[at + 1u] = floatBitsToUint(c.y);
+    pixels[at + 2u] = floatBitsToUint(c.z);
+    pixels[at + 3u] = floatBitsToUint(c.w);
+    pixels[at + 4u] = (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps;
+}

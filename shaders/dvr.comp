@@ -1,0 +1,43 @@
+#version 460
+// The reference DVR marcher (sylva/shared/dvr.h) over a float32 density grid.
+//
+// Bindings: 0-3 the grid's density words (SYLVA_SPLIT_WORDS: grids over 128 MiB); 4 the
+// transfer function (RGBA8 words, sylva/shared/tf.h); 5 the parameter block
+// (SYLVA_DVR_PARAM_WORDS words, sylva/shared/dvr_common.h: camera, image size, dims, ...);
+// 6 output, 5 words per pixel: premultiplied R, G, B, alpha (float bits) and the number of
+// lattice samples visited.
+// Specialization constants: 0 split shift of the grid.
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
+
+#include "sylva/shared/split_words.glsl"
+SYLVA_SPLIT_WORDS(grid, 0, SPLIT_SHIFT)
+layout(std430, binding = 4) readonly buffer Tf { uint tf_words[]; };
+layout(std430, binding = 5) readonly buffer Params { uint param_words[]; };
+layout(std430, binding = 6) writeonly buffer Pixels { uint pixels[]; };
+
+uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
+uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+
+#include "sylva/shared/camera.h"
+#include "sylva/shared/dvr.h"
+
+void main() {
+    SylvaDvrParams p = sylva_dvr_params(0u);
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= p.width || px.y >= p.height) return;
+    vec3 eye = sylva_param_v3(0u, 0u);
+    vec3 w = sylva_param_v3(0u, 3u);
+    vec3 u = sylva_param_v3(0u, 6u);
+    vec3 v = sylva_param_v3(0u, 9u);
+    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, p.width, p.height);
+    uint steps;
+    vec4 c = sylva_dvr_march(0u, 0u, p, eye, d, 0.0f, sylva_inf(), steps);
+    uint at = (px.y * p.width + px.x) * 5u;
+    pixels[at] = floatBitsToUint(c.x);
+    pixels[at + 1u] = floatBitsToUint(c.y);
+    pixels[at + 2u] = floatBitsToUint(c.z);
+    pixels[at + 3u] = floatBitsToUint(c.w);
+    pixels[at + 4u] = steps;
+}
