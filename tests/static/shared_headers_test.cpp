@@ -10,3 +10,5 @@
 #include <sylva/shared/dvr_common.h>
 #include <sylva/shared/dvr.h>
 #include <sylva/shared/bih_dvr.h>
+#include <sylva/shared/kd_layout.h>
+#include <sylva/shared/kd_iter.h>

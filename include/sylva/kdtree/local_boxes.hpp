@@ -1,0 +1,171 @@
+// sylva/kdtree/local_boxes.hpp -- the local-AABB pass of Zellmann et al.'s binned builder
+// (section 4.3): the tight box of the occupied voxels of every 8^3 block, empty blocks dropped,
+// sorted along a z-order Morton curve of the block coordinates so that the blocks of any box
+// lie in one conservative index range.
+//
+// The pass is one streaming read of the occupancy. Per block it OR-reduces three 8-bit masks:
+// the x bits of every row, and one y bit and one z bit per row that holds an occupied voxel; the
+// lowest and highest set bits of each mask are the block's tight box (box_from_masks). This is
+// the same box the paper finds by binary search in an 8^3 partial SVT, computed without the
+// table; a compute shader mirrors it with one workgroup per block, atomicOr (or subgroupOr) on
+// the masks and box_from_masks in one invocation.
+#ifndef SYLVA_KDTREE_LOCAL_BOXES_HPP
+#define SYLVA_KDTREE_LOCAL_BOXES_HPP
+
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <mutex>
+#include <numeric>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "sylva/core/concepts.hpp"
+#include "sylva/core/error.hpp"
+#include "sylva/volume/grid.hpp"
+#include "sylva/volume/occupancy.hpp"
+
+namespace sylva::kdtree {
+
+using volume::VoxelBox;
+
+/// Morton code of a block coordinate: bits of x, y, z interleaved (x lowest), 21 bits each.
+inline std::uint64_t morton3(uvec3 c) {
+    auto spread = [](std::uint64_t v) {
+        v &= 0x1FFFFFu;
+        v = (v | v << 32) & 0x1F00000000FFFFull;
+        v = (v | v << 16) & 0x1F0000FF0000FFull;
+        v = (v | v << 8) & 0x100F00F00F00F00Full;
+        v = (v | v << 4) & 0x10C30C30C30C30C3ull;
+        v = (v | v << 2) & 0x1249249249249249ull;
+        return v;
+    };
+    return spread(c.x) | (spread(c.y) << 1) | (spread(c.z) << 2);
+}
+
+/// The OR-reduced occupancy masks of one 8^3 block: bit i of x is set when some voxel with
+/// local x = i is occupied, and likewise for y and z.
+struct BlockMasks {
+    std::uint32_t x = 0, y = 0, z = 0;
+};
+
+/// The tight box of a block from its masks (x must be non-zero): lowest to highest set bit.
+inline VoxelBox box_from_masks(uvec3 block, const BlockMasks& m) {
+    uvec3 base = block * 8u;
+    uvec3 lo(std::countr_zero(m.x), std::countr_zero(m.y), std::countr_zero(m.z));
+    uvec3 hi(std::bit_width(m.x), std::bit_width(m.y), std::bit_width(m.z));
+    return VoxelBox{base + lo, base + hi};
+}
+
+/// The 8^3 local boxes of a grid: non-empty blocks only, ascending Morton code.
+struct LocalBoxes {
+    static constexpr std::uint32_t block = 8;
+    volume::Dims dims{0};
+    vec3 spacing{1.0f};
+    uvec3 blocks{0u};             ///< blocks along each axis
+    std::uint64_t occupied = 0;   ///< occupied voxels of the grid
+    std::vector<std::uint64_t> codes;  ///< Morton code of each non-empty block, ascending
+    std::vector<VoxelBox> boxes;       ///< its tight box, same order
+
+    /// Blocks [lo, hi) (block coordinates) that overlap `region`, clipped to the grid.
+    [[nodiscard]] VoxelBox block_range(const VoxelBox& region) const {
+        VoxelBox r = volume::intersect(region, volume::full_box(dims));
+        if (r.empty()) return VoxelBox{};
+        return VoxelBox{r.lo / block, (r.hi - 1u) / block + 1u};
+    }
+
+    /// Entries [first, last) whose codes lie between the codes of the first and the last block
+    /// of `region`: a superset of its blocks, since Morton order is monotone in each coordinate.
+    [[nodiscard]] std::pair<std::size_t, std::size_t> morton_range(const VoxelBox& region) const {
+        VoxelBox br = block_range(region);
+        if (br.empty()) return {0, 0};
+        auto first = std::lower_bound(codes.begin(), codes.end(), morton3(br.lo));
+        auto last = std::upper_bound(first, codes.end(), morton3(br.hi - 1u));
+        return {static_cast<std::size_t>(first - codes.begin()), static_cast<std::size_t>(last - codes.begin())};
+    }
+
+    /// Calls f(index) for every non-empty block that overlaps `region`, in Morton order.
+    template <class F>
+    void for_each(const VoxelBox& region, F&& f) const {
+        VoxelBox br = block_range(region);
+        auto [first, last] = morton_range(region);
+        for (std::size_t i = first; i < last; ++i)
+            if (br.contains(boxes[i].lo.x / block, boxes[i].lo.y / block, boxes[i].lo.z / block)) f(i);
+    }
+};
+
+namespace detail {
+
+/// ORs one row (local y = ly, z = lz within its blocks) into the masks of its blocks; returns
+/// the number of occupied voxels.
+inline std::uint64_t accumulate_row(const std::uint8_t* row, std::uint32_t nx, std::uint32_t ly, std::uint32_t lz,
+                                    std::vector<BlockMasks>& masks) {
+    std::uint64_t occupied = 0;
+    for (std::uint32_t bx = 0; bx < masks.size(); ++bx) {
+        std::uint32_t x0 = bx * 8u, n = std::min(8u, nx - x0), m = 0;
+        for (std::uint32_t k = 0; k < n; ++k) m |= std::uint32_t{row[x0 + k]} << k;
+        if (!m) continue;
+        masks[bx].x |= m;
+        masks[bx].y |= 1u << ly;
+        masks[bx].z |= 1u << lz;
+        occupied += static_cast<std::uint64_t>(std::popcount(m));
+    }
+    return occupied;
+}
+
+/// Local boxes of one row of blocks (by, bz), appended to `codes`/`boxes`.
+template <volume::OccupancySource S>
+std::uint64_t block_row(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, std::vector<std::uint8_t>& row,
+                        std::vector<BlockMasks>& masks, std::vector<std::pair<std::uint64_t, VoxelBox>>& out) {
+    volume::Dims d = src.dims;
+    std::fill(masks.begin(), masks.end(), BlockMasks{});
+    std::uint64_t occupied = 0;
+    for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
+        for (std::uint32_t y = by * 8u; y < std::min(d.y, by * 8u + 8u); ++y) {
+            src.row(0, d.x, y, z, row.data());
+            occupied += accumulate_row(row.data(), d.x, y & 7u, z & 7u, masks);
+        }
+    for (std::uint32_t bx = 0; bx < nb.x; ++bx)
+        if (masks[bx].x) out.emplace_back(morton3(uvec3(bx, by, bz)), box_from_masks(uvec3(bx, by, bz), masks[bx]));
+    return occupied;
+}
+
+}  // namespace detail
+
+/// Computes the local boxes of `src` in parallel over rows of blocks, then sorts them along
+/// the Morton curve. Throws sylva::Error for bad dimensions or more than 2^21 blocks an axis.
+template <volume::OccupancySource S, Executor X>
+LocalBoxes local_boxes(const S& src, X& exec) {
+    volume::voxel_count(src.dims);
+    LocalBoxes lb;
+    lb.dims = src.dims;
+    lb.spacing = src.spacing;
+    lb.blocks = (uvec3(src.dims) + 7u) / 8u;
+    if (std::max({lb.blocks.x, lb.blocks.y, lb.blocks.z}) > (1u << 21))
+        throw Error("kdtree: more than 2^21 blocks along an axis overflow the 64-bit Morton code");
+    std::vector<std::pair<std::uint64_t, VoxelBox>> all;
+    std::mutex m;
+    std::size_t rows = std::size_t{lb.blocks.y} * lb.blocks.z;
+    exec.parallel_for(0, rows, 1, [&](std::size_t lo, std::size_t hi) {
+        std::vector<std::uint8_t> row(src.dims.x);
+        std::vector<BlockMasks> masks(lb.blocks.x);
+        std::vector<std::pair<std::uint64_t, VoxelBox>> found;
+        std::uint64_t occupied = 0;
+        for (std::size_t r = lo; r < hi; ++r)
+            occupied += detail::block_row(src, lb.blocks, static_cast<std::uint32_t>(r % lb.blocks.y),
+                                          static_cast<std::uint32_t>(r / lb.blocks.y), row, masks, found);
+        std::lock_guard lock(m);
+        all.insert(all.end(), found.begin(), found.end());
+        lb.occupied += occupied;
+    });
+    std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    lb.codes.resize(all.size());
+    lb.boxes.resize(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i) lb.codes[i] = all[i].first, lb.boxes[i] = all[i].second;
+    return lb;
+}
+
+}  // namespace sylva::kdtree
+
+#endif  // SYLVA_KDTREE_LOCAL_BOXES_HPP
