@@ -7,7 +7,7 @@ set(_positive "elements;nodes;max_depth;bytes;rays_per_s")
 set(_data ${PROJECT_SOURCE_DIR}/../shared/data)
 
 function(sylva_render_test name)
-  cmake_parse_arguments(A "" "RC;ERR;MAKE_FILE;MAKE_BYTES;NEED;ENV" "ARGS;FILES;JSON" ${ARGN})
+  cmake_parse_arguments(A "KEYS_ONLY" "RC;ERR;MAKE_FILE;MAKE_BYTES;NEED;ENV" "ARGS;FILES;JSON" ${ARGN})
   list(JOIN A_ARGS "|" joined)
   set(defs -DEXE=$<TARGET_FILE:sylva-render> "-DARGS=${joined}")
   if(DEFINED A_RC)
@@ -28,7 +28,10 @@ function(sylva_render_test name)
   if(A_JSON)
     string(REPLACE ";" "|" keys "${_keys}")
     string(REPLACE ";" "|" positive "${_positive}")
-    list(APPEND defs "-DJSON=${A_JSON}" "-DJSON_KEYS=${keys}" "-DJSON_POSITIVE=${positive}")
+    list(APPEND defs "-DJSON=${A_JSON}" "-DJSON_KEYS=${keys}")
+    if(NOT A_KEYS_ONLY)  # the reference marcher has no index: nodes and depth are 0
+      list(APPEND defs "-DJSON_POSITIVE=${positive}")
+    endif()
   endif()
   add_test(NAME examples.sylva_render.${name} COMMAND ${CMAKE_COMMAND} ${defs} -P ${_check})
   set_tests_properties(examples.sylva_render.${name} PROPERTIES SKIP_RETURN_CODE 77 ENVIRONMENT "SYLVA_VULKAN_DEVICE=cpu"
@@ -61,3 +64,42 @@ sylva_render_test(bad_backend RC 2 ERR "--backend: 'metal' is not one of cpu\\|v
 sylva_render_test(no_output RC 2 ERR "-o OUT.png is required" ARGS --count 10)
 sylva_render_test(unwritable RC 1 ERR "cannot write /nonexistent-dir/x.png"
   ARGS --count 1000 --size 16x16 --quiet -o /nonexistent-dir/x.png)
+
+# Volumes (issue 3): the procedural volume on both backends in every mode, a real CT volume, bad input.
+foreach(backend cpu vulkan)
+  if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+    continue()
+  endif()
+  foreach(mode single multi iso none)
+    set(extra --mode dvr --dvr ${mode})
+    set(keys_only "")
+    if(mode STREQUAL "iso")
+      set(extra --mode iso --iso 0.3)
+    elseif(mode STREQUAL "none")
+      set(extra --mode dvr --index none)
+      set(keys_only KEYS_ONLY)
+    endif()
+    sylva_render_test(volume_${mode}_${backend} ${keys_only}
+      ARGS --backend ${backend} ${extra} --size 96x72 --quiet -o ${_out}/volume_${mode}_${backend}.png
+           --heatmap ${_out}/volume_${mode}_${backend}_heat.png --stats-json ${_out}/volume_${mode}_${backend}.json
+      FILES ${_out}/volume_${mode}_${backend}.png ${_out}/volume_${mode}_${backend}_heat.png
+      JSON ${_out}/volume_${mode}_${backend}.json)
+  endforeach()
+endforeach()
+sylva_render_test(volume_lobster_cpu
+  NEED ${_data}/lobster_301x324x56_uint8.raw
+  ARGS --volume ${_data}/lobster_301x324x56_uint8.raw --spacing 1,1,1.4 --size 96x72 --quiet -o ${_out}/lobster.png
+       --stats-json ${_out}/lobster.json
+  FILES ${_out}/lobster.png JSON ${_out}/lobster.json)
+sylva_render_test(volume_wrong_size RC 1 ERR "13 bytes, but 2x3x4 uint8 voxels need 24 bytes"
+  MAKE_FILE ${_out}/small_2x3x4_uint8.raw MAKE_BYTES 13 ARGS --volume ${_out}/small_2x3x4_uint8.raw -o ${_out}/x.png)
+sylva_render_test(volume_missing RC 1 ERR "nope_8x8x8_uint8\\.raw"
+  ARGS --volume ${_out}/nope_8x8x8_uint8.raw -o ${_out}/x.png)
+sylva_render_test(volume_bad_name RC 1 ERR "NAME_XxYxZ_TYPE"
+  MAKE_FILE ${_out}/volume.raw MAKE_BYTES 8 ARGS --volume ${_out}/volume.raw -o ${_out}/x.png)
+sylva_render_test(volume_empty RC 1 ERR "no voxel reaches the density threshold"  # "x" = 120/255 < 0.9
+  MAKE_FILE ${_out}/low_2x2x2_uint8.raw MAKE_BYTES 8 ARGS --volume ${_out}/low_2x2x2_uint8.raw --threshold 0.9 -o ${_out}/x.png)
+sylva_render_test(volume_index_none_particles RC 2 ERR "--index none renders volumes only"
+  ARGS --index none -o ${_out}/x.png)
+sylva_render_test(volume_bad_procedural RC 1 ERR "unknown procedural volume"
+  ARGS --volume procedural:teapot -o ${_out}/x.png)

@@ -1,5 +1,6 @@
-// sylva-render: builds a BIH over particles (a file or a procedural galaxy), renders it on the
-// host or through Vulkan, writes the image, an optional traversal-cost heat map and statistics.
+// sylva-render: builds a BIH over particles (a file or a procedural galaxy) or over the voxels of
+// a volume (a file or a procedural volume; see volume_scene.cpp), renders it on the host or
+// through Vulkan, writes the image, an optional traversal-cost heat map and statistics.
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -17,6 +18,7 @@
 
 #include "options.hpp"
 #include "stats.hpp"
+#include "volume_scene.hpp"
 
 using namespace sylva;
 
@@ -24,8 +26,6 @@ namespace sylva_render {
 namespace {
 
 std::vector<Sphere> load_scene(const Options& o, std::string& input) {
-    if (!o.volume.empty())
-        throw Error("--volume " + o.volume + ": volume input is not in this release yet; use --particles FILE");
     if (o.particles.empty()) {
         input = "procedural galaxy (" + std::to_string(o.count) + " particles)";
         return io::synthetic_galaxy(o.count);
@@ -72,6 +72,7 @@ Frame render(const Options& o, std::span<const std::uint32_t> words, std::span<c
 }
 
 int run(const Options& o) {
+    if (o.volume_input()) return run_volume(o);
     Stats s;
     s.backend = o.backend;
     std::vector<Sphere> spheres = load_scene(o, s.input);

@@ -7,13 +7,18 @@
 namespace sylva_render {
 
 const char* usage() {
-    return "usage: sylva-render [--particles FILE | --volume FILE] [--index bih] [--backend cpu|vulkan]\n"
-           "                    [--size WxH] -o OUT.png|OUT.exr [--stats-json FILE] [--heatmap FILE]\n"
-           "                    [--count N] [--radius-factor F] [--opacity A] [--alpha-stop A]\n"
+    return "usage: sylva-render [--particles FILE | --volume FILE|procedural[:ml|nbody]] [--index bih|none]\n"
+           "                    [--backend cpu|vulkan] [--size WxH] -o OUT.png|OUT.exr [--stats-json FILE]\n"
+           "                    [--heatmap FILE] [--view X,Y,Z] [--threads T] [--quiet]\n"
+           "particles:          [--count N] [--radius-factor F] [--opacity A] [--alpha-stop A]\n"
            "                    [--payload inline|range] [--nodes fixed16|float32] [--layout chunks|preorder]\n"
-           "                    [--chunk-depth D] [--empty-children trim-both|infinite] [--threads T]\n"
-           "                    [--view X,Y,Z] [--quiet]\n"
-           "With no input it renders a procedural galaxy of --count particles (default 1,000,000).\n"
+           "                    [--chunk-depth D] [--empty-children trim-both|infinite]\n"
+           "volumes:            [--mode dvr|iso] [--dvr single|multi] [--tf FILE | --tf-preset ct|ramp]\n"
+           "                    [--threshold D] [--resample F] [--spacing X,Y,Z] [--lod-density F]\n"
+           "                    [--lod-stddev F] [--lod-depth N] [--iso V] [--iso-cull on|off] [--steps N]\n"
+           "                    [--shading] [--opacity A] [--alpha-stop A]\n"
+           "With no input it renders a procedural galaxy of --count particles (default 1,000,000);\n"
+           "with --mode and no input, a procedural volume. Volume files: NAME_XxYxZ_TYPE.raw, .nrrd, .nhdr.\n"
            "SYLVA_VULKAN_DEVICE=auto|cpu|gpu|INDEX|NAME picks the Vulkan device.\n";
 }
 
@@ -58,7 +63,21 @@ Options parse(int argc, char** argv) {
         };
         if (a == "--particles") o.particles = value();
         else if (a == "--volume") o.volume = value();
-        else if (a == "--index") o.index = one_of(a, value(), {"bih"});
+        else if (a == "--index") o.index = one_of(a, value(), {"bih", "none"});
+        else if (a == "--mode") o.mode = one_of(a, value(), {"dvr", "iso"});
+        else if (a == "--dvr") o.dvr = one_of(a, value(), {"single", "multi"});
+        else if (a == "--tf") o.tf = value();
+        else if (a == "--tf-preset") o.tf_preset = one_of(a, value(), {"ct", "ramp"});
+        else if (a == "--threshold") o.threshold = static_cast<float>(number(a, value(), 0, 1));
+        else if (a == "--resample") o.resample = static_cast<float>(number(a, value(), 0.1, 8));
+        else if (a == "--spacing") o.spacing = parse_vec3(a, value());
+        else if (a == "--lod-density") o.lod_density = static_cast<float>(number(a, value(), 0, 1));
+        else if (a == "--lod-stddev") o.lod_stddev = static_cast<float>(number(a, value(), 0, 1));
+        else if (a == "--lod-depth") o.lod_depth = static_cast<std::uint32_t>(number(a, value(), 0, 64));
+        else if (a == "--iso") o.iso = static_cast<float>(number(a, value(), 0, 1));
+        else if (a == "--iso-cull") o.iso_cull = one_of(a, value(), {"on", "off"}) == "on";
+        else if (a == "--steps") o.steps = static_cast<std::uint32_t>(number(a, value(), 1, 1 << 16));
+        else if (a == "--shading") o.shading = true;
         else if (a == "--backend") o.backend = one_of(a, value(), {"cpu", "vulkan"});
         else if (a == "--size") parse_size(value(), o);
         else if (a == "-o" || a == "--output") o.output = value();
@@ -80,6 +99,9 @@ Options parse(int argc, char** argv) {
     }
     if (o.output.empty()) throw std::invalid_argument("-o OUT.png is required");
     if (!o.particles.empty() && !o.volume.empty()) throw std::invalid_argument("--particles and --volume exclude each other");
+    if (!o.particles.empty() && !o.mode.empty()) throw std::invalid_argument("--mode applies to volumes, not --particles");
+    if (o.index == "none" && !o.volume_input())
+        throw std::invalid_argument("--index none renders volumes only (the reference marcher); particles need --index bih");
     return o;
 }
 

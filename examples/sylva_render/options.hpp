@@ -11,8 +11,22 @@ namespace sylva_render {
 
 struct Options {
     std::string particles;           ///< --particles FILE (float32 xyz triples)
-    std::string volume;              ///< --volume FILE (not in this release)
-    std::string index = "bih";       ///< --index bih
+    std::string volume;              ///< --volume FILE|procedural[:NAME] (.raw by name convention, .nrrd, .nhdr)
+    std::string index = "bih";       ///< --index bih|none (none: the reference marcher, volumes only)
+    std::string mode;                ///< --mode dvr|iso (volumes, default dvr; implies a procedural volume without input)
+    std::string dvr = "single";      ///< --dvr single|multi: BIH-DVR samples per leaf (Kinkelin 4.3)
+    std::string tf;                  ///< --tf FILE (.json or text control points)
+    std::string tf_preset = "ct";    ///< --tf-preset ct|ramp
+    float threshold = 0.1f;          ///< --threshold D: voxels with normalised density >= D are elements
+    float resample = 1.0f;           ///< --resample F: trilinear supersampling factor (Kinkelin 6.2)
+    std::optional<std::vector<float>> spacing;  ///< --spacing X,Y,Z: voxel size override
+    float lod_density = 0.75f;       ///< --lod-density F: min element density of an LoD leaf (Table 3)
+    float lod_stddev = 0.01f;        ///< --lod-stddev F: max std-dev of an LoD leaf's densities (Table 3)
+    std::uint32_t lod_depth = 64;    ///< --lod-depth N: max LoD depth
+    float iso = 0.5f;                ///< --iso V: iso value for --mode iso
+    bool iso_cull = true;            ///< --iso-cull on|off: skip nodes whose density range excludes V
+    std::uint32_t steps = 1024;      ///< --steps N: samples along the longest axis (reference marcher, multi)
+    bool shading = false;            ///< --shading: Lambert shading from the gradient
     std::string backend = "cpu";     ///< --backend cpu|vulkan
     std::uint32_t width = 960, height = 720;
     std::string output;              ///< -o OUT.png|OUT.exr
@@ -30,6 +44,9 @@ struct Options {
     std::uint32_t threads = 0;       ///< --threads T (0: all cores)
     std::optional<std::vector<float>> view;    ///< --view X,Y,Z: direction from the centre to the eye
     bool quiet = false;              ///< --quiet
+
+    /// True when this run renders a volume (a file, or the procedural volume for --mode).
+    [[nodiscard]] bool volume_input() const { return !volume.empty() || (!mode.empty() && particles.empty()); }
 };
 
 /// Parses argv; throws std::invalid_argument with a message naming the bad option.

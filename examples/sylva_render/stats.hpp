@@ -19,6 +19,18 @@ struct Stats {
     std::uint32_t max_depth = 0, heatmap_peak = 0, width = 0, height = 0;
     double build_ms = 0, encode_ms = 0, render_ms = 0, rays_per_s = 0, single_child_percent = 0, steps_mean = 0;
     std::uint32_t steps_max = 0;
+    /// Volume runs: Kinkelin Table 3's rows for what was built (empty for particles).
+    struct VolumeRows {
+        bool present = false;
+        std::string mode, grid;
+        std::size_t voxels = 0, grid_bytes_16bit = 0;
+        std::size_t full_nodes = 0, full_bytes = 0, full_bytes_paper = 0;
+        double full_single_percent = 0, full_ms = 0;
+        std::uint32_t full_depth = 0;
+        std::size_t lod_nodes = 0, lod_leaves = 0, lod_bytes = 0;
+        std::uint32_t lod_depth = 0;
+        double lod_ms = 0;
+    } volume;
 
     void fill(const sylva::bih::Tree& t, std::size_t encoded_bytes, const sylva::Frame& f) {
         elements = t.stats.elements;
@@ -28,6 +40,11 @@ struct Stats {
         single_child_percent = t.stats.percent_single_child();
         build_ms = t.stats.build_ms;
         bytes = encoded_bytes;
+        fill_frame(f);
+    }
+
+    /// Render figures: size, time, rays/s, iterator steps, corrupted-encoding rays.
+    void fill_frame(const sylva::Frame& f) {
         width = f.width;
         height = f.height;
         render_ms = f.ms;
@@ -54,7 +71,29 @@ struct Stats {
            << "render           " << backend << " on " << device << ": " << width << "x" << height << " in "
            << render_ms << " ms, " << rays_per_s << " rays/s\n"
            << "iterator steps   mean " << steps_mean << ", max " << steps_max << "\n";
+        if (volume.present) print_volume(os);
         if (errors) os << "ERRORS           " << errors << " rays ended on a corrupted encoding\n";
+    }
+
+    /// Kinkelin Table 3's rows for the volume that was built.
+    void print_volume(std::ostream& os) const {
+        const VolumeRows& v = volume;
+        auto kb = [](std::size_t b) { return static_cast<double>(b) / 1024.0; };
+        os << "grid             " << v.grid << " (" << v.voxels << " voxels, 16-bit size " << kb(v.grid_bytes_16bit)
+           << " KB), mode " << v.mode << "\n";
+        if (v.full_nodes == 0) return;
+        os << "Table 3 (Kinkelin)\n"
+           << "  BIH elements   " << elements << " (" << 100.0 * static_cast<double>(elements) / static_cast<double>(v.voxels)
+           << "% of the voxels)\n"
+           << "  construction   " << v.full_ms << " ms (build + node statistics)\n"
+           << "  nodes          " << v.full_nodes << ", " << v.full_single_percent << "% with a single child, max depth "
+           << v.full_depth << "\n"
+           << "  size           " << kb(v.full_bytes_paper) << " KB at the paper's 40 B/node (" << kb(v.full_bytes)
+           << " KB in this implementation)\n"
+           << "  default LoD    " << v.lod_nodes << " nodes (" << v.lod_leaves << " leaves), max depth " << v.lod_depth
+           << ", " << kb(v.lod_bytes) << " KB = "
+           << 100.0 * static_cast<double>(v.lod_bytes) / static_cast<double>(std::max<std::size_t>(v.grid_bytes_16bit, 1))
+           << "% of the 16-bit grid, extracted in " << v.lod_ms << " ms\n";
     }
 
     static std::string quoted(const std::string& s) {
@@ -75,8 +114,17 @@ struct Stats {
             << ", \"single_child_percent\": " << single_child_percent << ", \"bytes\": " << bytes
             << ", \"build_ms\": " << build_ms << ", \"encode_ms\": " << encode_ms << ", \"render_ms\": " << render_ms
             << ", \"rays_per_s\": " << rays_per_s << ", \"width\": " << width << ", \"height\": " << height
-            << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max << ", \"errors\": " << errors
-            << "}\n";
+            << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max << ", \"errors\": " << errors;
+        if (volume.present) {
+            const VolumeRows& v = volume;
+            out << ", \"mode\": " << quoted(v.mode) << ", \"voxels\": " << v.voxels
+                << ", \"grid_bytes_16bit\": " << v.grid_bytes_16bit << ", \"full_nodes\": " << v.full_nodes
+                << ", \"full_single_child_percent\": " << v.full_single_percent << ", \"full_max_depth\": " << v.full_depth
+                << ", \"full_bytes\": " << v.full_bytes << ", \"full_bytes_paper\": " << v.full_bytes_paper
+                << ", \"full_ms\": " << v.full_ms << ", \"lod_nodes\": " << v.lod_nodes << ", \"lod_leaves\": " << v.lod_leaves
+                << ", \"lod_max_depth\": " << v.lod_depth << ", \"lod_bytes\": " << v.lod_bytes << ", \"lod_ms\": " << v.lod_ms;
+        }
+        out << "}\n";
         if (!out) throw sylva::Error("cannot write stats file " + path);
     }
 };
