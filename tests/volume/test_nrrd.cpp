@@ -72,14 +72,17 @@ std::string gzip(const std::string& data) {
 
 TEST_CASE("NRRD with attached raw data, spacings, comments and key/value pairs", "[nrrd]") {
     TempDir dir;
-    write_file(dir / "a.nrrd", u8_header + "spacings: 0.5 1 1.4\nkinds: domain domain domain\nspace origin: (1,2,3)\n"
-                                           "unknownfield: whatever\nmodality:=CT\n\n" + as_bytes(ramp_u8()));
+    write_file(dir / "a.nrrd", u8_header +
+                                   "spacings: 0.5 1 1.4\nkinds: domain domain domain\nspace origin: (1,2,3)\n"
+                                   "unknownfield: whatever\nmodality:=CT\n\n" +
+                                   as_bytes(ramp_u8()));
     Volume v = read_nrrd(dir / "a.nrrd");
     check_ramp_u8(v);
     CHECK(v.spacing == vec3(0.5f, 1.0f, 1.4f));
     SECTION("CRLF header lines and every version of the magic") {
         for (char version : std::string("12345")) {
-            std::string h = std::string("NRRD000") + version + "\r\ntype: uint8\r\ndimension: 3\r\nsizes: 2 3 4\r\nencoding: raw\r\n\r\n";
+            std::string h = std::string("NRRD000") + version +
+                            "\r\ntype: uint8\r\ndimension: 3\r\nsizes: 2 3 4\r\nencoding: raw\r\n\r\n";
             write_file(dir / "b.nrrd", h + as_bytes(ramp_u8()));
             check_ramp_u8(read_nrrd(dir / "b.nrrd"));
             CHECK(read_nrrd(dir / "b.nrrd").spacing == vec3(1.0f));
@@ -110,7 +113,8 @@ TEST_CASE("NRRD float, and types converted to float32", "[nrrd]") {
             std::memcpy(&w, &f, 4);
             for (int b = 3; b >= 0; --b) data.push_back(static_cast<char>((w >> (8 * b)) & 0xFF));
         }
-        write_file(dir / "f.nrrd", "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: big\n\n" + data);
+        write_file(dir / "f.nrrd",
+                   "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: big\n\n" + data);
         Volume v = read_nrrd(dir / "f.nrrd");
         REQUIRE(v.type == ScalarType::F32);
         CHECK(v.range_lo == -2.0f);
@@ -120,7 +124,9 @@ TEST_CASE("NRRD float, and types converted to float32", "[nrrd]") {
     SECTION("short (CT Hounsfield units) becomes float32") {
         std::vector<std::int16_t> s(24);
         for (int i = 0; i < 24; ++i) s[i] = static_cast<std::int16_t>(-1000 + 100 * i);
-        write_file(dir / "s.nrrd", "NRRD0004\ntype: short\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: little\n\n" + as_bytes(s));
+        write_file(
+            dir / "s.nrrd",
+            "NRRD0004\ntype: short\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: little\n\n" + as_bytes(s));
         Volume v = read_nrrd(dir / "s.nrrd");
         REQUIRE(v.type == ScalarType::F32);
         CHECK(v.value(0) == -1000.0f);
@@ -131,7 +137,9 @@ TEST_CASE("NRRD float, and types converted to float32", "[nrrd]") {
     SECTION("double becomes float32") {
         std::vector<double> d(24, 0.25);
         d[3] = 4.0;
-        write_file(dir / "d.nrrd", "NRRD0004\ntype: double\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: little\n\n" + as_bytes(d));
+        write_file(
+            dir / "d.nrrd",
+            "NRRD0004\ntype: double\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: little\n\n" + as_bytes(d));
         Volume v = read_nrrd(dir / "d.nrrd");
         CHECK(v.value(3) == 4.0f);
         CHECK(v.range_lo == 0.25f);
@@ -139,7 +147,9 @@ TEST_CASE("NRRD float, and types converted to float32", "[nrrd]") {
     SECTION("NaN float voxels are an error with the index") {
         std::vector<float> f(24, 1.0f);
         f[17] = std::numeric_limits<float>::quiet_NaN();
-        write_file(dir / "n.nrrd", "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: little\n\n" + as_bytes(f));
+        write_file(
+            dir / "n.nrrd",
+            "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 3 4\nencoding: raw\nendian: little\n\n" + as_bytes(f));
         CHECK_THROWS_WITH(read_nrrd(dir / "n.nrrd"), Contains("voxel 17") && Contains("NaN") && Contains("n.nrrd"));
     }
 }
@@ -147,26 +157,32 @@ TEST_CASE("NRRD float, and types converted to float32", "[nrrd]") {
 TEST_CASE("NRRD spacing from space directions, and 4-D with a leading size 1", "[nrrd]") {
     TempDir dir;
     SECTION("diagonal space directions, flips ignored") {
-        write_file(dir / "d.nrrd", u8_header + "space: left-posterior-superior\nspace directions: (-0.5,0,0) (0,2,0) (0,0,1.25)\n\n" +
-                                       as_bytes(ramp_u8()));
+        write_file(dir / "d.nrrd",
+                   u8_header + "space: left-posterior-superior\nspace directions: (-0.5,0,0) (0,2,0) (0,0,1.25)\n\n" +
+                       as_bytes(ramp_u8()));
         Volume v = read_nrrd(dir / "d.nrrd");
         check_ramp_u8(v);
         CHECK(v.spacing == vec3(0.5f, 2.0f, 1.25f));
     }
     SECTION("4-D with a leading size 1 and 'none' for its direction") {
-        write_file(dir / "e.nrrd", "NRRD0004\ntype: uchar\ndimension: 4\nsizes: 1 2 3 4\nencoding: raw\n"
-                                   "space dimension: 3\nspace directions: none (3,0,0) (0,3,0) (0,0,3)\n\n" + as_bytes(ramp_u8()));
+        write_file(dir / "e.nrrd",
+                   "NRRD0004\ntype: uchar\ndimension: 4\nsizes: 1 2 3 4\nencoding: raw\n"
+                   "space dimension: 3\nspace directions: none (3,0,0) (0,3,0) (0,0,3)\n\n" +
+                       as_bytes(ramp_u8()));
         Volume v = read_nrrd(dir / "e.nrrd");
         check_ramp_u8(v);
         CHECK(v.spacing == vec3(3.0f));
-        write_file(dir / "f.nrrd", "NRRD0004\ntype: uchar\ndimension: 4\nsizes: 1 2 3 4\nencoding: raw\nspacings: nan 1 2 3\n\n" +
-                                       as_bytes(ramp_u8()));
+        write_file(dir / "f.nrrd",
+                   "NRRD0004\ntype: uchar\ndimension: 4\nsizes: 1 2 3 4\nencoding: raw\nspacings: nan 1 2 3\n\n" +
+                       as_bytes(ramp_u8()));
         CHECK(read_nrrd(dir / "f.nrrd").spacing == vec3(1.0f, 2.0f, 3.0f));
     }
     SECTION("spacings agreeing with space directions are fine; disagreeing ones are not") {
-        write_file(dir / "g.nrrd", u8_header + "spacings: 1 2 3\nspace directions: (1,0,0) (0,2,0) (0,0,3)\n\n" + as_bytes(ramp_u8()));
+        write_file(dir / "g.nrrd",
+                   u8_header + "spacings: 1 2 3\nspace directions: (1,0,0) (0,2,0) (0,0,3)\n\n" + as_bytes(ramp_u8()));
         CHECK(read_nrrd(dir / "g.nrrd").spacing == vec3(1.0f, 2.0f, 3.0f));
-        write_file(dir / "h.nrrd", u8_header + "spacings: 1 2 3\nspace directions: (1,0,0) (0,2,0) (0,0,4)\n\n" + as_bytes(ramp_u8()));
+        write_file(dir / "h.nrrd",
+                   u8_header + "spacings: 1 2 3\nspace directions: (1,0,0) (0,2,0) (0,0,4)\n\n" + as_bytes(ramp_u8()));
         CHECK_THROWS_WITH(read_nrrd(dir / "h.nrrd"), Contains("disagree"));
     }
 }
@@ -190,7 +206,8 @@ TEST_CASE("NRRD detached data (.nhdr) relative to the header's folder, with skip
     }
     SECTION("errors") {
         write_file(dir / "missing.nhdr", u8_header + "data file: nowhere.raw\n");
-        CHECK_THROWS_WITH(read_nrrd(dir / "missing.nhdr"), Contains("nowhere.raw") && Contains("cannot open the data file"));
+        CHECK_THROWS_WITH(read_nrrd(dir / "missing.nhdr"),
+                          Contains("nowhere.raw") && Contains("cannot open the data file"));
         write_file(dir / "list.nhdr", u8_header + "data file: LIST\n");
         CHECK_THROWS_WITH(read_nrrd(dir / "list.nhdr"), Contains("single data file"));
         write_file(dir / "fmt.nhdr", u8_header + "data file: slice%03d.raw 1 4 1\n");
@@ -209,14 +226,16 @@ TEST_CASE("NRRD data of the wrong size", "[nrrd][errors]") {
     TempDir dir;
     std::string data = as_bytes(ramp_u8());
     write_file(dir / "t.nrrd", u8_header + "\n" + data.substr(0, 20));
-    CHECK_THROWS_WITH(read_nrrd(dir / "t.nrrd"), Contains("20 bytes") && Contains("asks for 24") && Contains("truncated"));
+    CHECK_THROWS_WITH(read_nrrd(dir / "t.nrrd"),
+                      Contains("20 bytes") && Contains("asks for 24") && Contains("truncated"));
     write_file(dir / "b.nrrd", u8_header + "\n" + data + "extra");
     CHECK_THROWS_WITH(read_nrrd(dir / "b.nrrd"), Contains("29 bytes") && Contains("too big"));
     write_file(dir / "s.nrrd", u8_header + "byte skip: 30\n\n" + data);
     CHECK_THROWS_WITH(read_nrrd(dir / "s.nrrd"), Contains("truncated"));
     write_file(dir / "m.nrrd", u8_header + "byte skip: -1\n\n" + data.substr(0, 10));
     CHECK_THROWS_WITH(read_nrrd(dir / "m.nrrd"), Contains("truncated"));
-    write_file(dir / "o.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4294967295 4294967295 16\nencoding: raw\n\n");
+    write_file(dir / "o.nrrd",
+               "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4294967295 4294967295 16\nencoding: raw\n\n");
     CHECK_THROWS_WITH(read_nrrd(dir / "o.nrrd"), Contains("overflow"));
 }
 
@@ -278,15 +297,17 @@ TEST_CASE("NRRD gzip data, attached and detached, and broken streams", "[nrrd][g
         CHECK_THROWS_WITH(read_nrrd(dir / "s1.nrrd"), Contains("only with raw"));
     }
     SECTION("big-endian uint16 through gzip") {
-        write_file(dir / "u.nrrd", "NRRD0004\ntype: uint16\ndimension: 3\nsizes: 2 3 4\nendian: big\nencoding: gzip\n\n" +
-                                       gzip(ramp_u16(true)));
+        write_file(dir / "u.nrrd",
+                   "NRRD0004\ntype: uint16\ndimension: 3\nsizes: 2 3 4\nendian: big\nencoding: gzip\n\n" +
+                       gzip(ramp_u16(true)));
         Volume v = read_nrrd(dir / "u.nrrd");
         for (std::size_t i = 0; i < 24; ++i) CHECK(v.value(i) == float(1000 * i + 1));
     }
     SECTION("a larger volume than one inflate chunk") {
         std::vector<std::uint8_t> big(100 * 90 * 80);
         for (std::size_t i = 0; i < big.size(); ++i) big[i] = static_cast<std::uint8_t>((i * 7919) >> 5);
-        write_file(dir / "big.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 100 90 80\nencoding: gzip\n\n" + gzip(as_bytes(big)));
+        write_file(dir / "big.nrrd",
+                   "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 100 90 80\nencoding: gzip\n\n" + gzip(as_bytes(big)));
         Volume v = read_nrrd(dir / "big.nrrd");
         REQUIRE(v.voxels() == big.size());
         CHECK(std::memcmp(v.bytes.data(), big.data(), big.size()) == 0);
@@ -307,6 +328,10 @@ TEST_CASE("NRRD gzip data, attached and detached, and broken streams", "[nrrd][g
         CHECK_THROWS_WITH(read_nrrd(dir / "short.nrrd"), Contains("only 23 bytes") && Contains("asks for 24"));
         write_file(dir / "long.nrrd", header + "encoding: gzip\n\n" + gzip(data + "more"));
         CHECK_THROWS_WITH(read_nrrd(dir / "long.nrrd"), Contains("more than the 24 bytes") && Contains("too big"));
+        // A header claiming 60000^3 voxels over a tiny stream fails on the stream, quickly.
+        write_file(dir / "huge.nrrd",
+                   "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 60000 60000 60000\nencoding: gzip\n\n" + z);
+        CHECK_THROWS_WITH(read_nrrd(dir / "huge.nrrd"), Contains("only 24 bytes") && Contains("216000000000000"));
         write_file(dir / "empty.nrrd", header + "encoding: gzip\n\n");
         CHECK_THROWS_WITH(read_nrrd(dir / "empty.nrrd"), Contains("cut off"));
     }

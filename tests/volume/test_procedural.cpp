@@ -45,7 +45,8 @@ TEST_CASE("Marschner-Lobb: voxel centres map onto [-1, 1]^3", "[procedural]") {
     other.spacing = vec3(2.0f);
     DensityGrid h = marschner_lobb(Dims(10, 12, 14), other);
     CHECK(h.spacing == vec3(2.0f));
-    CHECK(h.at(3, 4, 5) == Approx(ml_reference(-1.0 + 7.0 / 10.0, -1.0 + 9.0 / 12.0, -1.0 + 11.0 / 14.0, 3.0, 0.5)).margin(2e-5));
+    CHECK(h.at(3, 4, 5) ==
+          Approx(ml_reference(-1.0 + 7.0 / 10.0, -1.0 + 9.0 / 12.0, -1.0 + 11.0 / 14.0, 3.0, 0.5)).margin(2e-5));
     CHECK(marschner_lobb_at(vec3(0.0f, 0.0f, -1.0f)) == Approx(1.0f));
     CHECK_THROWS_WITH(marschner_lobb(Dims(0, 4, 4)), Contains("marschner_lobb") && Contains("zero"));
 }
@@ -63,18 +64,21 @@ TEST_CASE("constant_box, linear_ramp and radial_falloff hold their closed forms"
     CHECK(ramp.at(3, 1, 2) == 1.0f);  // centre (7, 3, 5): 0.2 + 0.7 + 0.25 = 1.15, clamped
     CHECK(ramp.at(1, 0, 0) == Approx(0.2 + 0.1 * 3.0 + 0.05 * 1.0));
     DensityGrid ball = radial_falloff(Dims(9, 9, 9), vec3(4.5f), 4.0f);
-    CHECK(ball.at(4, 4, 4) == 1.0f);                                   // centre voxel at the centre
+    CHECK(ball.at(4, 4, 4) == 1.0f);  // centre voxel at the centre
     CHECK(ball.at(6, 4, 4) == Approx(1.0 - 2.0 / 4.0));
-    CHECK(ball.at(0, 0, 0) == 0.0f);                                   // sqrt(48) > 4: clamped
+    CHECK(ball.at(0, 0, 0) == 0.0f);  // sqrt(48) > 4: clamped
     // Isosurface of level 0.5 is the sphere of radius 2: count centres with |c - 4.5| <= 2.
     std::size_t inside = 0;
     for (int z = 0; z < 9; ++z)
         for (int y = 0; y < 9; ++y)
-            for (int x = 0; x < 9; ++x) inside += (x - 4) * (x - 4) + (y - 4) * (y - 4) + (z - 4) * (z - 4) <= 4 ? 1u : 0u;
+            for (int x = 0; x < 9; ++x)
+                inside += (x - 4) * (x - 4) + (y - 4) * (y - 4) + (z - 4) * (z - 4) <= 4 ? 1u : 0u;
     CHECK(count_classified(ball, DensityThreshold{0.5f}) == inside);
     CHECK_THROWS_WITH(constant_box(Dims(4, 4, 4), 1.5f), Contains("not in [0, 1]"));
-    CHECK_THROWS_WITH(constant_box(Dims(4, 4, 4), 0.5f, glm::u32vec3(2), glm::u32vec3(1)), Contains("lo <= hi <= dims"));
-    CHECK_THROWS_WITH(constant_box(Dims(4, 4, 4), 0.5f, glm::u32vec3(0), glm::u32vec3(5)), Contains("lo <= hi <= dims"));
+    CHECK_THROWS_WITH(constant_box(Dims(4, 4, 4), 0.5f, glm::u32vec3(2), glm::u32vec3(1)),
+                      Contains("lo <= hi <= dims"));
+    CHECK_THROWS_WITH(constant_box(Dims(4, 4, 4), 0.5f, glm::u32vec3(0), glm::u32vec3(5)),
+                      Contains("lo <= hi <= dims"));
     CHECK_THROWS_WITH(constant_box(Dims(4, 4, 4), 0.5f, vec3(0.0f)), Contains("spacing"));
     CHECK_THROWS_WITH(linear_ramp(Dims(4, 4, 4), vec3(std::nanf("")), 0.0f), Contains("finite"));
     CHECK_THROWS_WITH(radial_falloff(Dims(4, 4, 4), vec3(1.0f), 0.0f), Contains("radius"));
@@ -95,9 +99,9 @@ TEST_CASE("sparse_nbody: deterministic, normalised, mostly empty, clustered", "[
     std::size_t nonzero = count_classified(a, [](float d) { return d > 0.0f; });
     std::size_t dense = count_classified(a, DensityThreshold{});
     INFO("nonzero " << nonzero << ", >= 0.1: " << dense << " of " << n);
-    CHECK(nonzero < n / 2);     // mostly empty space
+    CHECK(nonzero < n / 2);  // mostly empty space
     CHECK(dense < n / 10);
-    CHECK(dense > n / 500);     // but not nothing
+    CHECK(dense > n / 500);  // but not nothing
     // Clustered: the densest eighth of the 8^3-voxel blocks holds most of the mass.
     std::vector<double> block(512, 0.0);
     for (std::uint32_t z = 0; z < 64; ++z)

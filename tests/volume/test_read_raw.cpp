@@ -33,7 +33,8 @@ TEST_CASE("parse_raw_name reads NAME_XxYxZ_TYPE.raw", "[raw]") {
 
 TEST_CASE("parse_raw_name rejects names off the convention, saying why", "[raw][errors]") {
     CHECK_THROWS_WITH(parse_raw_name("vol_4x4x4_uint8.dat"), Contains("does not end in .raw"));
-    CHECK_THROWS_WITH(parse_raw_name("vol_4x4x4_int16.raw"), Contains("unknown voxel type 'int16'") && Contains("uint8, uint16, float32"));
+    CHECK_THROWS_WITH(parse_raw_name("vol_4x4x4_int16.raw"),
+                      Contains("unknown voxel type 'int16'") && Contains("uint8, uint16, float32"));
     CHECK_THROWS_WITH(parse_raw_name("vol_4x4x4.raw"), Contains("unknown voxel type '4x4x4'"));
     CHECK_THROWS_WITH(parse_raw_name("vol_4x4_uint8.raw"), Contains("dimensions '4x4'"));
     CHECK_THROWS_WITH(parse_raw_name("vol_4xax4_uint8.raw"), Contains("dimensions '4xax4'"));
@@ -95,12 +96,14 @@ TEST_CASE("raw reading errors name the file and the numbers", "[raw][errors]") {
     write_file(dir / "v_3x2x4_uint8.raw", bytes);
     const RawInfo info{Dims(3, 2, 4), ScalarType::U8, vec3(1.0f)};
     SECTION("missing file") {
-        CHECK_THROWS_WITH(read_raw(dir / "nope_3x2x4_uint8.raw", info), Contains("nope_3x2x4_uint8.raw") && Contains("no such file"));
+        CHECK_THROWS_WITH(read_raw(dir / "nope_3x2x4_uint8.raw", info),
+                          Contains("nope_3x2x4_uint8.raw") && Contains("no such file"));
     }
     SECTION("a folder is not a file") { CHECK_THROWS_WITH(read_raw(dir.path(), info), Contains("no such file")); }
     SECTION("file too big") {
-        CHECK_THROWS_WITH(read_raw(dir / "v_3x2x4_uint8.raw", RawInfo{Dims(3, 2, 3), ScalarType::U8, vec3(1.0f)}),
-                          Contains("24 bytes") && Contains("need 18 bytes") && Contains("too big") && Contains("v_3x2x4_uint8.raw"));
+        CHECK_THROWS_WITH(
+            read_raw(dir / "v_3x2x4_uint8.raw", RawInfo{Dims(3, 2, 3), ScalarType::U8, vec3(1.0f)}),
+            Contains("24 bytes") && Contains("need 18 bytes") && Contains("too big") && Contains("v_3x2x4_uint8.raw"));
     }
     SECTION("file truncated") {
         write_file(dir / "t_3x2x4_uint16.raw", bytes);  // 24 bytes, 48 needed
@@ -114,17 +117,20 @@ TEST_CASE("raw reading errors name the file and the numbers", "[raw][errors]") {
                           Contains("overflow"));
     }
     SECTION("zero dimensions") {
-        CHECK_THROWS_WITH(read_raw(dir / "v_3x2x4_uint8.raw", parse_raw_name("x_0x2x4_uint8.raw")), Contains("zero extent"));
+        CHECK_THROWS_WITH(read_raw(dir / "v_3x2x4_uint8.raw", parse_raw_name("x_0x2x4_uint8.raw")),
+                          Contains("zero extent"));
     }
     SECTION("unknown type") {
-        CHECK_THROWS_WITH(read_raw(dir / "v_3x2x4_uint8.raw", RawInfo{Dims(3, 2, 4), static_cast<ScalarType>(9), vec3(1.0f)}),
-                          Contains("unknown voxel type"));
+        CHECK_THROWS_WITH(
+            read_raw(dir / "v_3x2x4_uint8.raw", RawInfo{Dims(3, 2, 4), static_cast<ScalarType>(9), vec3(1.0f)}),
+            Contains("unknown voxel type"));
     }
     SECTION("bad spacing") {
-        CHECK_THROWS_WITH(read_raw(dir / "v_3x2x4_uint8.raw", RawInfo{Dims(3, 2, 4), ScalarType::U8, vec3(1.0f, 0.0f, 1.0f)}),
-                          Contains("spacing"));
-        CHECK_THROWS_WITH(read_raw(dir / "v_3x2x4_uint8.raw",
-                                   RawInfo{Dims(3, 2, 4), ScalarType::U8, vec3(std::numeric_limits<float>::quiet_NaN())}),
+        CHECK_THROWS_WITH(
+            read_raw(dir / "v_3x2x4_uint8.raw", RawInfo{Dims(3, 2, 4), ScalarType::U8, vec3(1.0f, 0.0f, 1.0f)}),
+            Contains("spacing"));
+        CHECK_THROWS_WITH(read_raw(dir / "v_3x2x4_uint8.raw", RawInfo{Dims(3, 2, 4), ScalarType::U8,
+                                                                      vec3(std::numeric_limits<float>::quiet_NaN())}),
                           Contains("spacing"));
     }
     SECTION("NaN and infinity in float32, with the voxel index") {
@@ -150,13 +156,14 @@ TEST_CASE("read_volume dispatches on the extension", "[raw][read]") {
     CHECK(a.spacing == vec3(1.0f));
     Volume b = read_volume(dir / "v_2x2x2_uint8.raw", vec3(1.0f, 1.0f, 1.4f));
     CHECK(b.spacing == vec3(1.0f, 1.0f, 1.4f));
-    write_file(dir / "v.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 1 1\nencoding: raw\nspacings: 2 3 4\n\n\x05\x06");
+    write_file(dir / "v.nrrd",
+               "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 1 1\nencoding: raw\nspacings: 2 3 4\n\n\x05\x06");
     Volume c = read_volume(dir / "v.nrrd");
     CHECK(c.spacing == vec3(2.0f, 3.0f, 4.0f));
     CHECK(c.value(1) == 6.0f);
     CHECK(read_volume(dir / "v.nrrd", vec3(0.5f)).spacing == vec3(0.5f));
-    CHECK_THROWS_WITH(read_volume(dir / "v.vtk"), Contains("unknown extension '.vtk'") && Contains(".nrrd") && Contains(".nhdr") &&
-                                                       Contains("NAME_XxYxZ_TYPE.raw"));
+    CHECK_THROWS_WITH(read_volume(dir / "v.vtk"), Contains("unknown extension '.vtk'") && Contains(".nrrd") &&
+                                                      Contains(".nhdr") && Contains("NAME_XxYxZ_TYPE.raw"));
     CHECK_THROWS_WITH(read_volume(dir / "noextension"), Contains("unknown extension"));
     CHECK_THROWS_WITH(read_volume(dir / "v_2x2x2_uint8.raw", vec3(-1.0f)), Contains("spacing"));
     CHECK_THROWS_WITH(read_volume(dir / "v_2x2_uint8.raw"), Contains("NAME_XxYxZ_TYPE.raw"));

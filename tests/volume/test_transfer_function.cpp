@@ -35,8 +35,8 @@ TEST_CASE("entries sample the piecewise-linear curve at i / (N - 1), clamped out
     // Entry 51 sits at 0.2 exactly; entry 52 at 52/255: (52/255 - 0.2) / 0.4 = 1/102 of the way.
     check_rgba(tf.entries()[51], {1.0f, 0.0f, 0.0f, 0.0f});
     check_rgba(tf.entries()[52], {1.0f - 1.0f / 102.0f, 0.0f, 1.0f / 102.0f, 1.0f / 102.0f});
-    check_rgba(tf.entries()[0], {1.0f, 0.0f, 0.0f, 0.0f});   // below the first point
-    check_rgba(tf.entries()[255], {0.0f, 0.0f, 1.0f, 1.0f}); // above the last
+    check_rgba(tf.entries()[0], {1.0f, 0.0f, 0.0f, 0.0f});    // below the first point
+    check_rgba(tf.entries()[255], {0.0f, 0.0f, 1.0f, 1.0f});  // above the last
     check_rgba(tf.entries()[200], {0.0f, 0.0f, 1.0f, 1.0f});
 }
 
@@ -112,7 +112,8 @@ TEST_CASE("bad control points and sizes are errors", "[tf][errors]") {
     CHECK_THROWS_WITH(TransferFunction({{0.0f, vec4(1.0f)}}, 70000), Contains("70000 entries"));
     CHECK_THROWS_WITH(TransferFunction({{0.0f, vec4(1.0f)}, {0.5f, {0.0f, 1.5f, 0.0f, 1.0f}}}),
                       Contains("control point 1") && Contains("g = 1.5"));
-    CHECK_THROWS_WITH(TransferFunction({{std::nanf(""), vec4(1.0f)}}), Contains("control point 0") && Contains("density"));
+    CHECK_THROWS_WITH(TransferFunction({{std::nanf(""), vec4(1.0f)}}),
+                      Contains("control point 0") && Contains("density"));
     CHECK_THROWS_WITH(TransferFunction({{0.0f, {0.0f, 0.0f, 0.0f, std::nanf("")}}}), Contains("a = nan"));
 }
 
@@ -133,13 +134,15 @@ TEST_CASE("text transfer functions: 'density r g b a' lines with # comments", "[
     fails_with("0 0 0 0 0\n\n\n1 1 1 1 1.01\n", "line 4");
     fails_with("# only comments\n\n", "no control points");
     fails_with("", "no control points");
-    CHECK_THROWS_WITH(TransferFunction::from_text(dir / "missing.txt"), Contains("missing.txt") && Contains("cannot open"));
+    CHECK_THROWS_WITH(TransferFunction::from_text(dir / "missing.txt"),
+                      Contains("missing.txt") && Contains("cannot open"));
 }
 
 TEST_CASE("JSON transfer functions: {\"points\": [[d, r, g, b, a], ...], \"entries\": N}", "[tf][io]") {
     TempDir dir;
-    write_file(dir / "tf.json", "{\n  \"name\": \"red to blue\", \"meta\": {\"tags\": [1, true, null, \"x\\\"y\"]},\n"
-                                "  \"points\": [[0.6, 0, 0, 1, 1],\n             [2e-1, 1, 0, 0, 0]],\n  \"entries\": 512\n}\n");
+    write_file(dir / "tf.json",
+               "{\n  \"name\": \"red to blue\", \"meta\": {\"tags\": [1, true, null, \"x\\\"y\"]},\n"
+               "  \"points\": [[0.6, 0, 0, 1, 1],\n             [2e-1, 1, 0, 0, 0]],\n  \"entries\": 512\n}\n");
     TransferFunction tf = TransferFunction::from_json(dir / "tf.json");
     CHECK(tf.size() == 512);
     check_rgba(tf.at(0.4f), {0.5f, 0.0f, 0.5f, 0.5f}, 1e-5);
@@ -162,8 +165,10 @@ TEST_CASE("JSON transfer functions: {\"points\": [[d, r, g, b, a], ...], \"entri
     fails_with("{\"points\": [[0, 0, 0, 0, 0]], \"points\": [[1,1,1,1,1]]}", "given twice");
     fails_with("{\"points\": [[0, 0, nan, 0, 0]]}", "expected a finite number");
     fails_with("{\"name\": \"unterminated}", "unterminated string");
-    fails_with("{\"x\": " + std::string(100, '[') + std::string(100, ']') + ", \"points\": [[0,0,0,0,0]]}", "deeper than 64");
+    fails_with("{\"x\": " + std::string(100, '[') + std::string(100, ']') + ", \"points\": [[0,0,0,0,0]]}",
+               "deeper than 64");
     fails_with("[[0, 0, 0, 0, 0]]", "expected '{'");
     fails_with("", "expected '{', found the end of the file");
-    CHECK_THROWS_WITH(TransferFunction::from_json(dir / "missing.json"), Contains("missing.json") && Contains("cannot open"));
+    CHECK_THROWS_WITH(TransferFunction::from_json(dir / "missing.json"),
+                      Contains("missing.json") && Contains("cannot open"));
 }

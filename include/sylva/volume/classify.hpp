@@ -41,7 +41,8 @@ struct DensityThreshold {
 /// the default) such voxels count; pass a small min_alpha (1e-6 is plenty) to drop them.
 class TransferFunctionAlpha {
 public:
-    explicit TransferFunctionAlpha(TransferFunction tf, float min_alpha = 0.0f) : tf_(std::move(tf)), min_alpha_(min_alpha) {
+    explicit TransferFunctionAlpha(TransferFunction tf, float min_alpha = 0.0f)
+        : tf_(std::move(tf)), min_alpha_(min_alpha) {
         if (!(min_alpha >= 0.0f && min_alpha < 1.0f))
             throw Error("TransferFunctionAlpha: min_alpha " + std::to_string(min_alpha) + " is not in [0, 1)");
     }

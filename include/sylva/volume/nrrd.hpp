@@ -33,10 +33,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
-#include <limits>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
+#include <new>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -68,9 +69,9 @@ struct Field {
 
 /// The header as read: fields by lowercase name, where the data start, what names the file.
 struct Header {
-    std::string source;                   ///< "NRRD file <path>", the prefix of every message
+    std::string source;  ///< "NRRD file <path>", the prefix of every message
     std::filesystem::path path;
-    std::map<std::string, Field> fields;  ///< field name (lowercase, single spaces) -> value
+    std::map<std::string, Field> fields;  ///< field name (lowercase) -> value
     std::uintmax_t data_offset = 0;       ///< attached data: first byte after the blank line
     bool blank_line_seen = false;         ///< false: the header runs to the end of the file
 };
@@ -107,7 +108,8 @@ inline bool read_line(std::istream& in, std::string& line, const std::string& so
     while (in.get(c)) {
         if (c == '\n') break;
         if (line.size() >= (std::size_t{1} << 16))
-            throw Error(source + ": header line " + std::to_string(line_no) + " is longer than 64 KiB (not a NRRD header?)");
+            throw Error(source + ": header line " + std::to_string(line_no) +
+                        " is longer than 64 KiB (not a NRRD header?)");
         line.push_back(c);
     }
     if (!in && line.empty()) return false;
@@ -118,8 +120,10 @@ inline bool read_line(std::istream& in, std::string& line, const std::string& so
 /// Checks the magic line NRRD0001 ... NRRD0005.
 inline void check_magic(const std::string& line, const std::string& source) {
     if (line.size() != 8 || line.compare(0, 7, "NRRD000") != 0 || line[7] < '1' || line[7] > '9')
-        throw Error(source + ": not a NRRD file (first line '" + line.substr(0, 40) + "', expected NRRD0001 to NRRD0005)");
-    if (line[7] > '5') throw Error(source + ": NRRD format version " + line.substr(7) + " is newer than 5 (unsupported)");
+        throw Error(source + ": not a NRRD file (first line '" + line.substr(0, 40) +
+                    "', expected NRRD0001 to NRRD0005)");
+    if (line[7] > '5')
+        throw Error(source + ": NRRD format version " + line.substr(7) + " is newer than 5 (unsupported)");
 }
 
 /// Adds one "field: value" line; comments and key:=value pairs are skipped.
@@ -178,23 +182,43 @@ inline Error field_error(const Header& h, const Field& f, const std::string& key
                  "': " + why);
 }
 
+/// NRRD type names (as the format spells them) and how each is stored.
+inline constexpr std::array<std::pair<std::string_view, FileType>, 28> type_names{{
+    {"uchar", {1, FileType::Kind::U8}},
+    {"unsigned char", {1, FileType::Kind::U8}},
+    {"uint8", {1, FileType::Kind::U8}},
+    {"uint8_t", {1, FileType::Kind::U8}},
+    {"signed char", {1, FileType::Kind::I8}},
+    {"int8", {1, FileType::Kind::I8}},
+    {"int8_t", {1, FileType::Kind::I8}},
+    {"ushort", {2, FileType::Kind::U16}},
+    {"unsigned short", {2, FileType::Kind::U16}},
+    {"unsigned short int", {2, FileType::Kind::U16}},
+    {"uint16", {2, FileType::Kind::U16}},
+    {"uint16_t", {2, FileType::Kind::U16}},
+    {"short", {2, FileType::Kind::I16}},
+    {"short int", {2, FileType::Kind::I16}},
+    {"signed short", {2, FileType::Kind::I16}},
+    {"signed short int", {2, FileType::Kind::I16}},
+    {"int16", {2, FileType::Kind::I16}},
+    {"int16_t", {2, FileType::Kind::I16}},
+    {"int", {4, FileType::Kind::I32}},
+    {"signed int", {4, FileType::Kind::I32}},
+    {"int32", {4, FileType::Kind::I32}},
+    {"int32_t", {4, FileType::Kind::I32}},
+    {"uint", {4, FileType::Kind::U32}},
+    {"unsigned int", {4, FileType::Kind::U32}},
+    {"uint32", {4, FileType::Kind::U32}},
+    {"uint32_t", {4, FileType::Kind::U32}},
+    {"float", {4, FileType::Kind::F32}},
+    {"double", {8, FileType::Kind::F64}},
+}};
+
 /// The file type named by the `type` field.
 inline FileType file_type(const Header& h) {
-    using K = FileType::Kind;
     const Field& f = required(h, "type");
-    static const std::array<std::pair<const char*, FileType>, 28> names{{
-        {"uchar", {1, K::U8}},  {"unsigned char", {1, K::U8}},  {"uint8", {1, K::U8}},  {"uint8_t", {1, K::U8}},
-        {"signed char", {1, K::I8}}, {"int8", {1, K::I8}}, {"int8_t", {1, K::I8}},
-        {"ushort", {2, K::U16}}, {"unsigned short", {2, K::U16}}, {"unsigned short int", {2, K::U16}},
-        {"uint16", {2, K::U16}}, {"uint16_t", {2, K::U16}},
-        {"short", {2, K::I16}}, {"short int", {2, K::I16}}, {"signed short", {2, K::I16}},
-        {"signed short int", {2, K::I16}}, {"int16", {2, K::I16}}, {"int16_t", {2, K::I16}},
-        {"int", {4, K::I32}}, {"signed int", {4, K::I32}}, {"int32", {4, K::I32}}, {"int32_t", {4, K::I32}},
-        {"uint", {4, K::U32}}, {"unsigned int", {4, K::U32}}, {"uint32", {4, K::U32}}, {"uint32_t", {4, K::U32}},
-        {"float", {4, K::F32}}, {"double", {8, K::F64}},
-    }};
     std::string name = lower(f.value);
-    for (const auto& [n, t] : names)
+    for (const auto& [n, t] : type_names)
         if (name == n) return t;
     throw field_error(h, f, "type",
                       "unsupported voxel type (supported: uchar/uint8, ushort/uint16, float; int8, int16, int32, "
@@ -240,7 +264,8 @@ inline Dims grid_dims(const Header& h) {
         sizes.push_back(static_cast<std::uint32_t>(v));
     }
     if (dim == 4 && sizes[0] != 1)
-        throw field_error(h, fs, "sizes", "a 4-D volume must have a leading size 1 (one scalar per voxel), not " + w[0]);
+        throw field_error(h, fs, "sizes",
+                          "a 4-D volume must have a leading size 1 (one scalar per voxel), not " + w[0]);
     std::size_t a = sizes.size() - 3;
     return Dims(sizes[a], sizes[a + 1], sizes[a + 2]);
 }
@@ -250,7 +275,9 @@ inline std::optional<vec3> spacings(const Header& h, std::size_t axes) {
     const Field* f = optional_field(h, "spacings");
     if (!f) return std::nullopt;
     std::vector<std::string> w = words(f->value);
-    if (w.size() != axes) throw field_error(h, *f, "spacings", std::to_string(w.size()) + " values for " + std::to_string(axes) + " axes");
+    if (w.size() != axes)
+        throw field_error(h, *f, "spacings",
+                          std::to_string(w.size()) + " values for " + std::to_string(axes) + " axes");
     vec3 s;
     for (int i = 0; i < 3; ++i) {
         double v = 0.0;
@@ -266,10 +293,18 @@ inline std::vector<std::optional<glm::dvec3>> direction_vectors(const Header& h,
     std::vector<std::optional<glm::dvec3>> out;
     std::string_view v = f.value;
     for (std::size_t i = 0; i < v.size();) {
-        if (std::isspace(static_cast<unsigned char>(v[i]))) { ++i; continue; }
-        if (v.compare(i, 4, "none") == 0) { out.emplace_back(); i += 4; continue; }
+        if (std::isspace(static_cast<unsigned char>(v[i]))) {
+            ++i;
+            continue;
+        }
+        if (v.compare(i, 4, "none") == 0) {
+            out.emplace_back();
+            i += 4;
+            continue;
+        }
         std::size_t close = v.find(')', i);
-        if (v[i] != '(' || close == std::string_view::npos) throw field_error(h, f, "space directions", "expected '(x,y,z)' or 'none'");
+        if (v[i] != '(' || close == std::string_view::npos)
+            throw field_error(h, f, "space directions", "expected '(x,y,z)' or 'none'");
         std::string inner(v.substr(i + 1, close - i - 1));
         std::replace(inner.begin(), inner.end(), ',', ' ');
         std::vector<std::string> c = words(inner);
@@ -289,8 +324,11 @@ inline std::optional<vec3> direction_spacing(const Header& h, std::size_t axes) 
     const Field* f = optional_field(h, "space directions");
     if (!f) return std::nullopt;
     auto dirs = direction_vectors(h, *f);
-    if (dirs.size() != axes) throw field_error(h, *f, "space directions", std::to_string(dirs.size()) + " entries for " + std::to_string(axes) + " axes");
-    if (axes == 4 && dirs[0]) throw field_error(h, *f, "space directions", "the leading (non-spatial) axis must be 'none'");
+    if (dirs.size() != axes)
+        throw field_error(h, *f, "space directions",
+                          std::to_string(dirs.size()) + " entries for " + std::to_string(axes) + " axes");
+    if (axes == 4 && dirs[0])
+        throw field_error(h, *f, "space directions", "the leading (non-spatial) axis must be 'none'");
     vec3 s;
     for (int i = 0; i < 3; ++i) {
         const auto& d = dirs[axes - 3 + i];
@@ -298,9 +336,11 @@ inline std::optional<vec3> direction_spacing(const Header& h, std::size_t axes) 
         double diag = std::abs((*d)[i]);
         for (int k = 0; k < 3; ++k)
             if (k != i && std::abs((*d)[k]) > 1e-6 * diag)
-                throw field_error(h, *f, "space directions", "axis " + std::to_string(i) + " is not along the space axis " +
-                                  std::to_string(i) + " (only diagonal directions, i.e. axis-aligned grids, are supported)");
-        if (!(diag > 0.0) || diag > 3.0e38) throw field_error(h, *f, "space directions", "axis " + std::to_string(i) + " has zero length");
+                throw field_error(h, *f, "space directions",
+                                  "axis " + std::to_string(i) + " is not along the space axis " + std::to_string(i) +
+                                      " (only diagonal directions, i.e. axis-aligned grids, are supported)");
+        if (!(diag > 0.0) || diag > 3.0e38)
+            throw field_error(h, *f, "space directions", "axis " + std::to_string(i) + " has zero length");
         s[i] = static_cast<float>(diag);
     }
     return s;
@@ -312,8 +352,8 @@ inline Geometry geometry(const Header& h) {
     g.dims = grid_dims(h);
     std::size_t axes = words(required(h, "sizes").value).size();
     std::optional<vec3> from_spacings = spacings(h, axes), from_directions = direction_spacing(h, axes);
-    if (from_spacings && from_directions && glm::any(glm::greaterThan(glm::abs(*from_spacings - *from_directions),
-                                                                       1e-5f * *from_directions)))
+    if (from_spacings && from_directions &&
+        glm::any(glm::greaterThan(glm::abs(*from_spacings - *from_directions), 1e-5f * *from_directions)))
         throw Error(h.source + ": 'spacings' and 'space directions' disagree");
     g.spacing = from_directions ? *from_directions : from_spacings.value_or(vec3(1.0f));
     return g;
@@ -332,7 +372,8 @@ inline bool gzip_encoding(const Header& h) {
 inline bool big_endian(const Header& h, std::size_t width) {
     const Field* f = optional_field(h, "endian");
     if (!f) {
-        if (width > 1) throw Error(h.source + ": missing field 'endian' (required for " + std::to_string(width) + "-byte voxels)");
+        if (width > 1)
+            throw Error(h.source + ": missing field 'endian' (required for " + std::to_string(width) + "-byte voxels)");
         return false;
     }
     std::string e = lower(f->value);
@@ -343,10 +384,10 @@ inline bool big_endian(const Header& h, std::size_t width) {
 /// Where the voxels are: the file, the offset of the first data line, and the skips.
 struct DataLocation {
     std::filesystem::path path;
-    std::string source;            ///< names the data file (and the header when detached)
-    std::uintmax_t offset = 0;     ///< where the data (before line/byte skips) start
+    std::string source;         ///< names the data file (and the header when detached)
+    std::uintmax_t offset = 0;  ///< where the data (before line/byte skips) start
     long long line_skip = 0;
-    long long byte_skip = 0;       ///< -1: the data end the file (raw only)
+    long long byte_skip = 0;  ///< -1: the data end the file (raw only)
 };
 
 inline long long skip_field(const Header& h, const std::string& key, long long lowest) {
@@ -401,12 +442,14 @@ inline std::vector<std::byte> read_raw_data(const DataLocation& d, std::size_t n
     std::uintmax_t size = std::filesystem::file_size(d.path, ec);
     if (ec) throw Error(d.source + ": cannot read its size: " + ec.message());
     std::uintmax_t start = static_cast<std::uintmax_t>(in.tellg());
-    if (d.byte_skip == -1) start = size >= need ? std::max(start, size - need) : start;
-    else start += static_cast<std::uintmax_t>(d.byte_skip);
+    if (d.byte_skip == -1)
+        start = size >= need ? std::max(start, size - need) : start;
+    else
+        start += static_cast<std::uintmax_t>(d.byte_skip);
     std::uintmax_t have = size > start ? size - start : 0;
     if (have != need)
-        throw Error(d.source + ": " + std::to_string(have) + " bytes of data, but the header asks for " + std::to_string(need) +
-                    " (" + (have < need ? "truncated" : "too big") + ")");
+        throw Error(d.source + ": " + std::to_string(have) + " bytes of data, but the header asks for " +
+                    std::to_string(need) + " (" + (have < need ? "truncated" : "too big") + ")");
     std::vector<std::byte> bytes(need);
     in.seekg(static_cast<std::streamoff>(start));
     if (!in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(need)))
@@ -420,7 +463,8 @@ class GzipReader {
 public:
     GzipReader(std::istream& in, std::string source, std::size_t expected)
         : in_(in), source_(std::move(source)), expected_(expected) {
-        if (inflateInit2(&zs_, 15 + 32) != Z_OK) throw Error(source_ + ": zlib inflateInit2 failed");  // 32: gzip or zlib header
+        if (inflateInit2(&zs_, 15 + 32) != Z_OK)
+            throw Error(source_ + ": zlib inflateInit2 failed");  // 32: gzip or zlib header
     }
     GzipReader(const GzipReader&) = delete;
     GzipReader& operator=(const GzipReader&) = delete;
@@ -430,8 +474,8 @@ public:
     void read(std::byte* dst, std::size_t n) {
         while (n > 0) {
             if (ended_)
-                throw Error(source_ + ": gzip data hold only " + std::to_string(produced_) + " bytes, but the header asks for " +
-                            std::to_string(expected_) + " (truncated)");
+                throw Error(source_ + ": gzip data hold only " + std::to_string(produced_) +
+                            " bytes, but the header asks for " + std::to_string(expected_) + " (truncated)");
             std::size_t got = step(dst, std::min<std::size_t>(n, std::size_t{1} << 30));
             dst += got;
             n -= got;
@@ -461,9 +505,11 @@ private:
         int r = inflate(&zs_, Z_NO_FLUSH);
         std::size_t got = room - zs_.avail_out;
         produced_ += got;
-        if (r == Z_STREAM_END) ended_ = true;
+        if (r == Z_STREAM_END)
+            ended_ = true;
         else if (r != Z_OK && r != Z_BUF_ERROR)
-            throw Error(source_ + ": corrupt gzip data (" + (zs_.msg ? zs_.msg : "zlib error " + std::to_string(r)) + ")");
+            throw Error(source_ + ": corrupt gzip data (" + (zs_.msg ? zs_.msg : "zlib error " + std::to_string(r)) +
+                        ")");
         return got;
     }
 
@@ -482,20 +528,33 @@ inline std::vector<std::byte> read_gzip_data(const DataLocation& d, std::size_t 
 #if defined(SYLVA_HAVE_ZLIB) && SYLVA_HAVE_ZLIB
     std::ifstream in = open_data(d);
     GzipReader gz(in, d.source, need);
-    std::vector<std::byte> bytes(std::min<std::size_t>(need, std::size_t{1} << 16));
+    std::vector<std::byte> bytes(std::size_t{1} << 16);
     for (long long left = d.byte_skip; left > 0;) {  // skipped bytes go through a small scratch buffer
         std::size_t n = std::min<std::size_t>(bytes.size(), static_cast<std::size_t>(left));
         gz.read(bytes.data(), n);
         left -= static_cast<long long>(n);
     }
-    bytes.resize(need);
-    gz.read(bytes.data(), need);
+    // Grow with the data (64 MiB at a time): a header that claims far more voxels than a short
+    // stream holds fails on the stream, not on one huge allocation.
+    bytes.clear();
+    for (std::size_t have = 0; have < need;) {
+        std::size_t step = std::min<std::size_t>(need - have, std::size_t{1} << 26);
+        try {
+            bytes.resize(have + step);
+        } catch (const std::bad_alloc&) {
+            throw Error(d.source + ": cannot allocate " + std::to_string(need) + " bytes for the voxels");
+        }
+        gz.read(bytes.data() + have, step);
+        have += step;
+    }
     if (!gz.finished())
-        throw Error(d.source + ": gzip data hold more than the " + std::to_string(need) + " bytes the header asks for (too big)");
+        throw Error(d.source + ": gzip data hold more than the " + std::to_string(need) +
+                    " bytes the header asks for (too big)");
     return bytes;
 #else
     (void)need;
-    throw Error(d.source + ": gzip encoding needs zlib (sylva was built without it: install zlib1g-dev and reconfigure)");
+    throw Error(d.source +
+                ": gzip encoding needs zlib (sylva was built without it: install zlib1g-dev and reconfigure)");
 #endif
 }
 
@@ -520,12 +579,23 @@ inline Volume make_volume(std::vector<std::byte> bytes, FileType t, const Geomet
     v.spacing = g.spacing;
     v.type = t.kind == K::U8 ? ScalarType::U8 : (t.kind == K::U16 ? ScalarType::U16 : ScalarType::F32);
     switch (t.kind) {
-        case K::I8: v.bytes = to_float32<std::int8_t>(bytes); break;
-        case K::I16: v.bytes = to_float32<std::int16_t>(bytes); break;
-        case K::I32: v.bytes = to_float32<std::int32_t>(bytes); break;
-        case K::U32: v.bytes = to_float32<std::uint32_t>(bytes); break;
-        case K::F64: v.bytes = to_float32<double>(bytes); break;
-        default: v.bytes = std::move(bytes);
+        case K::I8:
+            v.bytes = to_float32<std::int8_t>(bytes);
+            break;
+        case K::I16:
+            v.bytes = to_float32<std::int16_t>(bytes);
+            break;
+        case K::I32:
+            v.bytes = to_float32<std::int32_t>(bytes);
+            break;
+        case K::U32:
+            v.bytes = to_float32<std::uint32_t>(bytes);
+            break;
+        case K::F64:
+            v.bytes = to_float32<double>(bytes);
+            break;
+        default:
+            v.bytes = std::move(bytes);
     }
     return v;
 }

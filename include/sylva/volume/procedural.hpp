@@ -62,7 +62,8 @@ void fill(DensityGrid& g, F&& f) {
 }
 
 inline void check_density(float d, const char* what) {
-    if (!(d >= 0.0f && d <= 1.0f)) throw Error(std::string(what) + ": density " + std::to_string(d) + " is not in [0, 1]");
+    if (!(d >= 0.0f && d <= 1.0f))
+        throw Error(std::string(what) + ": density " + std::to_string(d) + " is not in [0, 1]");
 }
 
 /// A small deterministic generator (splitmix64): the same numbers on every platform and
@@ -119,7 +120,8 @@ inline DensityGrid marschner_lobb(Dims dims, const MarschnerLobbConfig& config =
     if (!std::isfinite(config.f_m) || !std::isfinite(config.alpha) || !(config.alpha >= 0.0f))
         throw Error("marschner_lobb: f_m and alpha must be finite, alpha >= 0");
     vec3 extent = vec3(dims) * g.spacing;
-    detail::procedural::fill(g, [&](vec3 c) { return marschner_lobb_at(2.0f * c / extent - 1.0f, config.f_m, config.alpha); });
+    detail::procedural::fill(
+        g, [&](vec3 c) { return marschner_lobb_at(2.0f * c / extent - 1.0f, config.f_m, config.alpha); });
     return g;
 }
 
@@ -127,13 +129,13 @@ inline DensityGrid marschner_lobb(Dims dims, const MarschnerLobbConfig& config =
 
 /// Parameters of sparse_nbody. Positions are in the unit cube, mapped onto the grid's box.
 struct SparseNbodyConfig {
-    std::uint32_t blobs = 4000;    ///< Gaussian blobs in all
-    std::uint32_t halos = 24;      ///< halo centres; filaments join each to its two nearest
-    float halo_share = 0.35f;      ///< share of blobs inside halos
-    float field_share = 0.10f;     ///< share scattered uniformly; the rest lie along filaments
-    float blob_sigma = 0.006f;     ///< blob width (standard deviation), fraction of the largest dimension
-    float filament_width = 0.012f; ///< standard deviation across a filament (unit cube)
-    vec3 spacing{1.0f};            ///< world size of one voxel
+    std::uint32_t blobs = 4000;     ///< Gaussian blobs in all
+    std::uint32_t halos = 24;       ///< halo centres; filaments join each to its two nearest
+    float halo_share = 0.35f;       ///< share of blobs inside halos
+    float field_share = 0.10f;      ///< share scattered uniformly; the rest lie along filaments
+    float blob_sigma = 0.006f;      ///< blob width (standard deviation), fraction of the largest dimension
+    float filament_width = 0.012f;  ///< standard deviation across a filament (unit cube)
+    vec3 spacing{1.0f};             ///< world size of one voxel
 };
 
 namespace detail::procedural {
@@ -176,7 +178,8 @@ inline std::vector<Blob> nbody_blobs(const SparseNbodyConfig& c, Rng& rng) {
         } else if (kind < c.halo_share + c.field_share || filaments.empty()) {
             blobs.push_back({rng.uniform3(), width, 0.35f});
         } else {
-            auto [a, e] = filaments[std::min<std::size_t>(static_cast<std::size_t>(rng.uniform() * float(filaments.size())), filaments.size() - 1)];
+            auto [a, e] = filaments[std::min<std::size_t>(
+                static_cast<std::size_t>(rng.uniform() * float(filaments.size())), filaments.size() - 1)];
             float t = rng.uniform();
             blobs.push_back({glm::mix(halo[a], halo[e], t) + rng.normal3() * c.filament_width, width, 0.6f});
         }
@@ -198,7 +201,8 @@ inline void splat(std::vector<float>& acc, Dims dims, const Blob& b) {
                 vec3 d = vec3(float(x), float(y), float(z)) + 0.5f - centre;
                 float d2 = glm::dot(d, d);
                 if (d2 <= reach * reach)
-                    acc[voxel_index(dims, std::uint32_t(x), std::uint32_t(y), std::uint32_t(z))] += b.amplitude * std::exp(-d2 * inv);
+                    acc[voxel_index(dims, std::uint32_t(x), std::uint32_t(y), std::uint32_t(z))] +=
+                        b.amplitude * std::exp(-d2 * inv);
             }
 }
 
@@ -214,7 +218,8 @@ inline DensityGrid sparse_nbody(Dims dims, std::uint32_t seed, const SparseNbody
     using namespace detail::procedural;
     DensityGrid g = empty_grid(dims, config.spacing, "sparse_nbody");
     if (!(config.halo_share >= 0.0f && config.field_share >= 0.0f && config.halo_share + config.field_share <= 1.0f) ||
-        !(config.blob_sigma > 0.0f && config.blob_sigma < 1.0f) || !(config.filament_width >= 0.0f && config.filament_width < 1.0f))
+        !(config.blob_sigma > 0.0f && config.blob_sigma < 1.0f) ||
+        !(config.filament_width >= 0.0f && config.filament_width < 1.0f))
         throw Error("sparse_nbody: shares must be in [0, 1] with a sum <= 1, widths in (0, 1)");
     Rng rng(0x5EED0000ull ^ (std::uint64_t{seed} << 17) ^ seed);
     for (const Blob& b : nbody_blobs(config, rng)) splat(g.values, dims, b);
@@ -237,7 +242,8 @@ inline DensityGrid constant_box(Dims dims, float density, glm::u32vec3 lo, glm::
         throw Error("constant_box: box [lo, hi) must satisfy lo <= hi <= dims");
     for (std::uint32_t z = lo.z; z < hi.z; ++z)
         for (std::uint32_t y = lo.y; y < hi.y; ++y)
-            std::fill_n(g.values.begin() + static_cast<std::ptrdiff_t>(voxel_index(dims, lo.x, y, z)), hi.x - lo.x, density);
+            std::fill_n(g.values.begin() + static_cast<std::ptrdiff_t>(voxel_index(dims, lo.x, y, z)), hi.x - lo.x,
+                        density);
     return g;
 }
 

@@ -36,8 +36,9 @@ inline Volume read_volume(const std::filesystem::path& path, std::optional<vec3>
         if (spacing) info.spacing = *spacing;
         return read_raw(path, info);
     }
-    throw Error("volume file " + path.string() + ": unknown extension '" + ext +
-                "' (accepted: .nrrd and .nhdr (NRRD), .raw named NAME_XxYxZ_TYPE.raw with TYPE uint8, uint16 or float32)");
+    throw Error(
+        "volume file " + path.string() + ": unknown extension '" + ext +
+        "' (accepted: .nrrd and .nhdr (NRRD), .raw named NAME_XxYxZ_TYPE.raw with TYPE uint8, uint16 or float32)");
 }
 
 }  // namespace sylva::volume

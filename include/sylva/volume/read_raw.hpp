@@ -81,7 +81,8 @@ inline void set_value_range(Volume& v, const std::string& source) {
     for (std::size_t i = 0, n = v.voxels(); i < n; ++i) {
         float x = v.value(i);
         if (!std::isfinite(x))
-            throw Error(source + ": float32 voxel " + std::to_string(i) + " is " + (std::isnan(x) ? "NaN" : "infinite"));
+            throw Error(source + ": float32 voxel " + std::to_string(i) + " is " +
+                        (std::isnan(x) ? "NaN" : "infinite"));
         lo = std::min(lo, x);
         hi = std::max(hi, x);
     }

@@ -82,7 +82,8 @@ inline float sample_trilinear(const DensityGrid& grid, vec3 world) {
     if (!all_finite(world)) throw Error("sample_trilinear: position is NaN or infinite");
     using namespace detail::resample;
     return trilinear(grid, axis_weights(world.x, grid.spacing.x, grid.dims.x),
-                     axis_weights(world.y, grid.spacing.y, grid.dims.y), axis_weights(world.z, grid.spacing.z, grid.dims.z));
+                     axis_weights(world.y, grid.spacing.y, grid.dims.y),
+                     axis_weights(world.z, grid.spacing.z, grid.dims.z));
 }
 
 /// Dimensions after resampling by `factor`: round(dims * factor) per axis (at least 1). Throws
@@ -121,12 +122,14 @@ DensityGrid resample_trilinear(const DensityGrid& grid, float factor, E& executo
     std::vector<AxisWeights> axes[3];
     for (int a = 0; a < 3; ++a)
         for (std::uint32_t j = 0; j < out.dims[a]; ++j)
-            axes[a].push_back(axis_weights((static_cast<float>(j) + 0.5f) * out.spacing[a], grid.spacing[a], grid.dims[a]));
+            axes[a].push_back(
+                axis_weights((static_cast<float>(j) + 0.5f) * out.spacing[a], grid.spacing[a], grid.dims[a]));
     executor.parallel_for(0, out.dims.z, 1, [&](std::size_t z0, std::size_t z1) {
         for (std::size_t z = z0; z < z1; ++z)
             for (std::uint32_t y = 0; y < out.dims.y; ++y) {
                 float* row = &out.values[voxel_index(out.dims, 0, y, static_cast<std::uint32_t>(z))];
-                for (std::uint32_t x = 0; x < out.dims.x; ++x) row[x] = trilinear(grid, axes[0][x], axes[1][y], axes[2][z]);
+                for (std::uint32_t x = 0; x < out.dims.x; ++x)
+                    row[x] = trilinear(grid, axes[0][x], axes[1][y], axes[2][z]);
             }
     });
     return out;

@@ -55,15 +55,16 @@ inline void check_point(const ControlPoint& p, const std::string& where) {
     if (!std::isfinite(p.density)) throw Error(where + ": density is not a finite number");
     for (int c = 0; c < 4; ++c)
         if (!(p.rgba[c] >= 0.0f && p.rgba[c] <= 1.0f))
-            throw Error(where + ": " + "rgba"[c] + std::string(" = ") + std::to_string(p.rgba[c]) + " is not in [0, 1]");
+            throw Error(where + ": " + "rgba"[c] + std::string(" = ") + std::to_string(p.rgba[c]) +
+                        " is not in [0, 1]");
 }
 
 /// The piecewise-linear control-point curve at density `d` (points sorted by density).
 inline vec4 curve_at(const std::vector<ControlPoint>& points, float d) {
     if (d <= points.front().density) return points.front().rgba;
     if (d >= points.back().density) return points.back().rgba;
-    auto next = std::upper_bound(points.begin(), points.end(), d,
-                                 [](float x, const ControlPoint& p) { return x < p.density; });
+    auto next =
+        std::upper_bound(points.begin(), points.end(), d, [](float x, const ControlPoint& p) { return x < p.density; });
     const ControlPoint& a = *(next - 1);
     const ControlPoint& b = *next;
     float f = (d - a.density) / (b.density - a.density);
@@ -71,7 +72,9 @@ inline vec4 curve_at(const std::vector<ControlPoint>& points, float d) {
 }
 
 /// One 0..255 channel of a component in [0, 1].
-inline std::uint32_t unorm8(float c) { return static_cast<std::uint32_t>(std::lround(std::clamp(c, 0.0f, 1.0f) * 255.0f)); }
+inline std::uint32_t unorm8(float c) {
+    return static_cast<std::uint32_t>(std::lround(std::clamp(c, 0.0f, 1.0f) * 255.0f));
+}
 
 /// A file's whole text, or an error naming it.
 inline std::string read_text(const std::filesystem::path& path, const std::string& what) {
@@ -166,7 +169,8 @@ public:
     /// colour is rgba's throughout). Throws unless lo < hi, both finite, rgba in [0, 1].
     [[nodiscard]] static TransferFunction ramp(float lo, float hi, vec4 rgba, std::size_t entries = default_entries) {
         if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi))
-            throw Error("transfer function ramp: need finite lo < hi, got " + std::to_string(lo) + " and " + std::to_string(hi));
+            throw Error("transfer function ramp: need finite lo < hi, got " + std::to_string(lo) + " and " +
+                        std::to_string(hi));
         return TransferFunction({{lo, vec4(vec3(rgba), 0.0f)}, {hi, rgba}}, entries);
     }
 
@@ -244,7 +248,8 @@ public:
     [[nodiscard]] Error error(const std::string& why) const { return Error(where(line_) + ": " + why); }
     /// The next non-blank character (0 at the end), not consumed.
     char peek() {
-        while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r' || text_[pos_] == '\n')) {
+        while (pos_ < text_.size() &&
+               (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r' || text_[pos_] == '\n')) {
             if (text_[pos_] == '\n') ++line_;
             ++pos_;
         }
@@ -253,7 +258,8 @@ public:
     void expect(char c) {
         char got = peek();
         if (got != c)
-            throw error(std::string("expected '") + c + "', found " + (got ? "'" + std::string(1, got) + "'" : "the end of the file"));
+            throw error(std::string("expected '") + c + "', found " +
+                        (got ? "'" + std::string(1, got) + "'" : "the end of the file"));
         ++pos_;
     }
     /// Consumes `c` when it comes next.
@@ -268,10 +274,12 @@ public:
     double number() {
         peek();
         std::size_t b = pos_;
-        while (pos_ < text_.size() && std::string_view("+-0123456789.eE").find(text_[pos_]) != std::string_view::npos) ++pos_;
+        while (pos_ < text_.size() && std::string_view("+-0123456789.eE").find(text_[pos_]) != std::string_view::npos)
+            ++pos_;
         double v = 0.0;
         if (b == pos_ || text_[b] == '+' || !parse_float(std::string_view(text_).substr(b, pos_ - b), v))
-            throw error("expected a finite number, found '" + text_.substr(b, std::max<std::size_t>(pos_ - b, 1)) + "'");
+            throw error("expected a finite number, found '" + text_.substr(b, std::max<std::size_t>(pos_ - b, 1)) +
+                        "'");
         return v;
     }
     /// A string; escapes are kept only as far as keys need (\uXXXX becomes '?').
@@ -283,7 +291,10 @@ public:
             char c = text_[pos_++];
             if (c == '"') return out;
             if (c == '\n') throw error("line break inside a string");
-            if (c != '\\') { out.push_back(c); continue; }
+            if (c != '\\') {
+                out.push_back(c);
+                continue;
+            }
             if (pos_ >= text_.size()) throw error("unterminated string");
             char e = text_[pos_++];
             if (e == 'u') {
@@ -301,10 +312,19 @@ public:
     void skip_value(int depth = 0) {
         if (depth > 64) throw error("nested deeper than 64 levels");
         char c = peek();
-        if (c == '"') { string(); return; }
-        if (c == '{' || c == '[') { skip_container(c, depth); return; }
+        if (c == '"') {
+            string();
+            return;
+        }
+        if (c == '{' || c == '[') {
+            skip_container(c, depth);
+            return;
+        }
         for (std::string_view word : {"true", "false", "null"})
-            if (std::string_view(text_).substr(pos_, word.size()) == word) { pos_ += word.size(); return; }
+            if (std::string_view(text_).substr(pos_, word.size()) == word) {
+                pos_ += word.size();
+                return;
+            }
         number();
     }
 
@@ -340,7 +360,8 @@ inline std::vector<ControlPoint> json_points(JsonReader& r) {
         r.expect('[');
         double v[5];
         for (int i = 0; i < 5; ++i) {
-            if (i > 0 && !r.accept(',')) throw r.error("a point needs 5 numbers [d, r, g, b, a], found " + std::to_string(i));
+            if (i > 0 && !r.accept(','))
+                throw r.error("a point needs 5 numbers [d, r, g, b, a], found " + std::to_string(i));
             v[i] = r.number();
         }
         if (!r.accept(']')) throw r.error("a point needs exactly 5 numbers [d, r, g, b, a], found more");
@@ -355,7 +376,8 @@ inline std::vector<ControlPoint> json_points(JsonReader& r) {
 /// "entries": a whole number in [256, 65536].
 inline std::size_t json_entries(JsonReader& r) {
     double n = r.number();
-    if (!(n >= double(TransferFunction::min_entries) && n <= double(TransferFunction::max_entries)) || n != std::floor(n))
+    if (!(n >= double(TransferFunction::min_entries) && n <= double(TransferFunction::max_entries)) ||
+        n != std::floor(n))
         throw r.error("\"entries\" must be a whole number from 256 to 65536, found " + std::to_string(n));
     return static_cast<std::size_t>(n);
 }
@@ -373,10 +395,14 @@ inline TransferFunction TransferFunction::from_json(const std::filesystem::path&
         do {
             std::string key = r.string();
             r.expect(':');
-            if ((key == "points" && have_points) || (key == "entries" && have_entries)) throw r.error("\"" + key + "\" given twice");
-            if (key == "points") points = detail::tf::json_points(r), have_points = true;
-            else if (key == "entries") entries = detail::tf::json_entries(r), have_entries = true;
-            else r.skip_value();
+            if ((key == "points" && have_points) || (key == "entries" && have_entries))
+                throw r.error("\"" + key + "\" given twice");
+            if (key == "points")
+                points = detail::tf::json_points(r), have_points = true;
+            else if (key == "entries")
+                entries = detail::tf::json_entries(r), have_entries = true;
+            else
+                r.skip_value();
         } while (r.accept(','));
         r.expect('}');
     }
