@@ -8,17 +8,20 @@
 // pixel: premultiplied R, G, B, alpha (float bits) and the iterator's step count
 // (0xFFFFFFFF: corrupted encoding).
 // Specialization constants: 0 split shift of the BIH, 1 stack entries (>= the tree's max
-// depth), 2 split shift of the node ranges.
+// depth), 2 split shift of the node ranges, 3 and 4 parts holding data of the BIH and of the
+// ranges (1: fast loads, see SYLVA_SPLIT_WORDS_COUNTED).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
 layout(constant_id = 1) const int STACK_SIZE = 64;
 layout(constant_id = 2) const uint RANGES_SHIFT = 25u;
+layout(constant_id = 3) const uint WORD_PARTS = 4u;
+layout(constant_id = 4) const uint RANGE_PARTS = 4u;
 #define SYLVA_BIH_STACK_SIZE STACK_SIZE
 
 #include "sylva/shared/split_words.glsl"
-SYLVA_SPLIT_WORDS(words, 0, SPLIT_SHIFT)
-SYLVA_SPLIT_WORDS(ranges, 4, RANGES_SHIFT)
+SYLVA_SPLIT_WORDS_COUNTED(words, 0, SPLIT_SHIFT, WORD_PARTS)
+SYLVA_SPLIT_WORDS_COUNTED(ranges, 4, RANGES_SHIFT, RANGE_PARTS)
 layout(std430, binding = 8) readonly buffer Tf { uint tf_words[]; };
 layout(std430, binding = 9) readonly buffer Params { uint param_words[]; };
 layout(std430, binding = 10) writeonly buffer Pixels { uint pixels[]; };

@@ -6,13 +6,14 @@
 // (SYLVA_DVR_PARAM_WORDS words, sylva/shared/dvr_common.h: camera, image size, dims, ...);
 // 6 output, 5 words per pixel: premultiplied R, G, B, alpha (float bits) and the number of
 // lattice samples visited.
-// Specialization constants: 0 split shift of the grid.
+// Specialization constants: 0 split shift of the grid, 1 parts holding data (1: fast loads).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
+layout(constant_id = 1) const uint GRID_PARTS = 4u;
 
 #include "sylva/shared/split_words.glsl"
-SYLVA_SPLIT_WORDS(grid, 0, SPLIT_SHIFT)
+SYLVA_SPLIT_WORDS_COUNTED(grid, 0, SPLIT_SHIFT, GRID_PARTS)
 layout(std430, binding = 4) readonly buffer Tf { uint tf_words[]; };
 layout(std430, binding = 5) readonly buffer Params { uint param_words[]; };
 layout(std430, binding = 6) writeonly buffer Pixels { uint pixels[]; };

@@ -82,7 +82,7 @@ TEST_CASE("Bad grids throw sylva::Error", "[dvr]") {
     require_error([&] { render_dvr_cpu(broken, s.params(), ex); }, "words");
 }
 
-TEST_CASE("Bad BIH input throws; corrupted encodings end rays without crashing", "[dvr]") {
+TEST_CASE("Bad BIH input throws, corrupted encodings end rays without crashing", "[dvr]") {
     Small s;
     SerialExecutor ex;
     VolumeRenderParams p = s.params();

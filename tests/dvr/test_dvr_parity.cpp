@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include <sylva/bih/query.hpp>
 #include <sylva/render/metrics.hpp>
 #include <sylva/vulkan/volume.hpp>
 
@@ -127,4 +128,39 @@ TEST_CASE("Vulkan volume renderers refuse bad input like the host", "[parity][vu
     p.iso_culling = false;
     Frame f = vk::render_bih_dvr_vulkan(ctx, dbih, p);
     CHECK(f.rgba.size() == 64);
+}
+
+TEST_CASE("Voxel BIH leaf sequences on Vulkan (bih_leaves.comp) equal the host's", "[parity][vulkan]") {
+    // bih_leaves.comp does not look at payloads, so it serves voxel trees as they are.
+    vk::Context ctx = vk::Context::create();
+    volume::DensityGrid grid = sample_grid({20, 18, 16}, vec3(1.0f, 1.0f, 1.5f), blobs(vec3(20.0f, 18.0f, 24.0f)));
+    for (bih::NodeFormat fmt : {bih::NodeFormat::Fixed16, bih::NodeFormat::Float32}) {
+        auto words = encode_voxels(grid_cuboids(grid, 0.05f), fmt);
+        auto rays = rays_into(grid.world_box(), 3000, 17);
+        std::vector<Interval> ranges(rays.size());
+        const std::uint32_t max_leaves = 48;
+        vk::DeviceBih dev(ctx, words);
+        auto gpu = vk::leaf_sequences(ctx, dev, rays, ranges, max_leaves);
+        std::size_t stride = 3 + 3 * std::size_t{max_leaves}, differing = 0, leaves = 0;
+        for (std::size_t r = 0; r < rays.size(); ++r) {
+            bih::LeafIterator it(words, rays[r]);
+            std::vector<std::uint32_t> host(stride, 0u);
+            std::uint32_t n = 0;
+            while (auto leaf = it.next()) {
+                if (n < max_leaves) {
+                    host[3 + 3 * n] = leaf->node;
+                    host[4 + 3 * n] = std::bit_cast<std::uint32_t>(leaf->t.t0);
+                    host[5 + 3 * n] = std::bit_cast<std::uint32_t>(leaf->t.t1);
+                }
+                ++n;
+            }
+            host[0] = n;
+            host[1] = it.status();
+            host[2] = it.steps();
+            leaves += n;
+            differing += std::equal(host.begin(), host.end(), gpu.begin() + std::ptrdiff_t(r * stride)) ? 0 : 1;
+        }
+        CHECK(differing == 0);
+        CHECK(leaves > rays.size() * 5);
+    }
 }

@@ -39,4 +39,24 @@
         return 0u; \
     }
 
+/// SYLVA_SPLIT_WORDS with a specialization constant PARTS: the number of parts that hold data
+/// (1 to 4: the word count divided by 2^SHIFT, rounded up). When it is 1 (arrays up to 2^SHIFT words, the
+/// common case) every load reads part 0 directly: on lavapipe that makes a shader reading the
+/// array in its inner loop about three times faster than the four-way part selection.
+#define SYLVA_SPLIT_WORDS_COUNTED(NAME, FIRST_BINDING, SHIFT, PARTS) \
+    SYLVA_SPLIT_WORDS_PART(NAME, (FIRST_BINDING) + 0, 0) \
+    SYLVA_SPLIT_WORDS_PART(NAME, (FIRST_BINDING) + 1, 1) \
+    SYLVA_SPLIT_WORDS_PART(NAME, (FIRST_BINDING) + 2, 2) \
+    SYLVA_SPLIT_WORDS_PART(NAME, (FIRST_BINDING) + 3, 3) \
+    uint sylva_load_##NAME(uint i) { \
+        if ((PARTS) <= 1u) return SYLVA_SPLIT_WORDS_READ(NAME, 0, i); \
+        uint part = i >> (SHIFT); \
+        uint j = i & ((1u << (SHIFT)) - 1u); \
+        if (part == 0u) return SYLVA_SPLIT_WORDS_READ(NAME, 0, j); \
+        if (part == 1u) return SYLVA_SPLIT_WORDS_READ(NAME, 1, j); \
+        if (part == 2u) return SYLVA_SPLIT_WORDS_READ(NAME, 2, j); \
+        if (part == 3u) return SYLVA_SPLIT_WORDS_READ(NAME, 3, j); \
+        return 0u; \
+    }
+
 #endif  // SYLVA_SHARED_SPLIT_WORDS_GLSL

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -26,15 +27,32 @@
 
 namespace sylva::vk {
 
+/// How many parts of 2^shift words `words` words fill (at least 1): the PARTS specialization
+/// constant of SYLVA_SPLIT_WORDS_COUNTED (1 lets the shader skip the part selection).
+inline std::uint32_t used_parts(std::size_t words, std::uint32_t shift) {
+    std::size_t part = std::size_t{1} << shift;
+    return static_cast<std::uint32_t>(std::max<std::size_t>(1, (words + part - 1) / part));
+}
+
 /// A density grid uploaded once (split over four bindings, so grids over 128 MiB work).
 class DeviceGrid {
 public:
     /// `shift` 0 picks the largest part the device allows; tests force small parts.
     DeviceGrid(Context& ctx, const GridWords& grid, std::uint32_t shift = 0)
-        : words_(split_words(ctx, checked(grid), 4, shift)), dims_(grid.dims), spacing_(grid.spacing) {}
+        : words_(split_words(ctx, checked(grid), 4, shift)),
+          parts_(used_parts(grid.words.size(), words_.shift)),
+          dims_(grid.dims),
+          spacing_(grid.spacing) {}
     [[nodiscard]] volume::Dims dims() const { return dims_; }
     [[nodiscard]] vec3 spacing() const { return spacing_; }
-    [[nodiscard]] std::uint32_t shift() const { return words_.shift; }
+    /// Specialization constants of dvr.comp: split shift, parts holding data.
+    [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {words_.shift, parts_}; }
+    /// The marcher's kernel for this grid, built on first use and kept (lavapipe compiles a
+    /// pipeline on its first dispatch, which costs more than a small frame).
+    Kernel& kernel(Context& ctx) {
+        if (!kernel_) kernel_.emplace(ctx, spirv::dvr, 7, 0, constants());
+        return *kernel_;
+    }
     [[nodiscard]] Buffer* part(std::size_t i) { return &words_.parts[i]; }
 
 private:
@@ -44,8 +62,10 @@ private:
         return g.words;
     }
     SplitWords words_;
+    std::uint32_t parts_;
     volume::Dims dims_;
     vec3 spacing_;
+    std::optional<Kernel> kernel_;
 };
 
 /// A voxel BIH and its optional node-range buffer uploaded once (each split over four bindings).
@@ -65,10 +85,16 @@ public:
     [[nodiscard]] std::vector<std::uint32_t> params(const VolumeRenderParams& p) const {
         return sylva::detail::pack_bih_dvr(header_, word_count_, voxel_size_, grid_box_, range_count_, p);
     }
-    /// Specialization constants of bih_dvr.comp: BIH split shift, stack size, ranges shift.
-    [[nodiscard]] std::array<std::uint32_t, 3> constants() const {
+    /// Specialization constants of bih_dvr.comp: BIH split shift, stack size, ranges shift,
+    /// parts holding data of the BIH and of the ranges.
+    [[nodiscard]] std::array<std::uint32_t, 5> constants() const {
         auto c = bih_.constants();
-        return {c[0], c[1], ranges_.shift};
+        return {c[0], c[1], ranges_.shift, used_parts(word_count_, c[0]), used_parts(range_count_, ranges_.shift)};
+    }
+    /// The BIH-DVR kernel for this BIH, built on first use and kept (see DeviceGrid::kernel).
+    Kernel& kernel(Context& ctx) {
+        if (!kernel_) kernel_.emplace(ctx, spirv::bih_dvr, 11, 0, constants());
+        return *kernel_;
     }
     [[nodiscard]] Buffer* part(std::size_t i) { return bih_.part(i); }
     [[nodiscard]] Buffer* range_part(std::size_t i) { return &ranges_.parts[i]; }
@@ -87,6 +113,7 @@ private:
     std::size_t range_count_;
     vec3 voxel_size_;
     Aabb grid_box_;
+    std::optional<Kernel> kernel_;
 };
 
 namespace detail {
@@ -113,10 +140,8 @@ inline Frame render_dvr_vulkan(Context& ctx, DeviceGrid& grid, const VolumeRende
     Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     tf.upload(p.tf);
     pb.upload(params);
-    std::array<std::uint32_t, 1> constants{grid.shift()};
-    Kernel kernel(ctx, spirv::dvr, 7, 0, constants);
     std::array<Buffer*, 7> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), &tf, &pb, &out};
-    return detail::run_image_kernel(ctx, kernel, bind, out, p.width, p.height);
+    return detail::run_image_kernel(ctx, grid.kernel(ctx), bind, out, p.width, p.height);
 }
 
 /// Renders a voxel BIH in mode p.mode on the device; same output as render_bih_dvr_cpu.
@@ -125,12 +150,10 @@ inline Frame render_bih_dvr_vulkan(Context& ctx, DeviceVoxelBih& bih, const Volu
     Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     tf.upload(p.tf);
     pb.upload(params);
-    auto constants = bih.constants();
-    Kernel kernel(ctx, spirv::bih_dvr, 11, 0, constants);
     std::array<Buffer*, 11> bind{bih.part(0),       bih.part(1),       bih.part(2),       bih.part(3),
                                  bih.range_part(0), bih.range_part(1), bih.range_part(2), bih.range_part(3),
                                  &tf,               &pb,               &out};
-    return detail::run_image_kernel(ctx, kernel, bind, out, p.width, p.height);
+    return detail::run_image_kernel(ctx, bih.kernel(ctx), bind, out, p.width, p.height);
 }
 
 }  // namespace sylva::vk
