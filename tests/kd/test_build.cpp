@@ -62,13 +62,15 @@ BruteSplit brute_split(const Occupancy& o, const VoxelBox& box, const Config& c)
     int axis = box.longest_axis();
     std::vector<std::uint32_t> planes;
     kdtree::detail::candidate_planes(box, axis, c, o.dims, planes);
+    double middle = (double(box.lo[axis]) + double(box.hi[axis])) / 2.0;
     for (std::uint32_t p : planes) {
         VoxelBox lo = box, hi = box;
         lo.hi[axis] = p;
         hi.lo[axis] = p;
         std::uint64_t cost = tight_direct(o, lo).volume() + tight_direct(o, hi).volume();
         r.any_plane = true;
-        if (cost < r.best_cost) r.best_cost = cost, r.best_plane = p;
+        bool nearer = std::abs(double(p) - middle) < std::abs(double(r.best_plane) - middle);
+        if (cost < r.best_cost || (cost == r.best_cost && nearer)) r.best_cost = cost, r.best_plane = p;
     }
     return r;
 }
@@ -88,7 +90,7 @@ void check_decisions(const Tree& t, const Occupancy& o, const Config& c) {
         }
         REQUIRE_FALSE(small);
         REQUIRE(n.box.longest_axis() == n.axis);
-        REQUIRE(n.plane == b.best_plane);  // the first plane of least cost (Vidal eq. 1)
+        REQUIRE(n.plane == b.best_plane);  // least cost (Vidal eq. 1), ties to the middle
         REQUIRE(vol - double(b.best_cost) >= c.min_removed_fraction * vol);
     }
 }

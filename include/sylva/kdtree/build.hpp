@@ -4,7 +4,8 @@
 // Starting from the tight box of all occupied voxels, each node is split along the longest
 // axis of its box at the candidate plane that minimises C = BV(lower) + BV(upper), the volumes
 // of the tight boxes of the occupied voxels on either side (Vidal eq. 1); equivalently, the
-// plane that removes the most empty space (eq. 2). A node becomes a leaf at a halting
+// plane that removes the most empty space (eq. 2), ties going to the plane nearest the middle.
+// A node becomes a leaf at a halting
 // criterion (section 2.1.4): its box is small, no plane removes enough empty space, or it is
 // at the maximum depth. Both children of a split are non-empty and strictly smaller (a tight
 // box has occupied voxels on both faces of every axis, and planes lie strictly inside it), so
@@ -171,7 +172,10 @@ struct Limits {
 };
 
 /// Applies the halting criteria to node `n` and, where it splits, picks the cheapest plane
-/// (Vidal eqs. 1-2; ties go to the first plane). Scratch vectors are the caller's.
+/// (Vidal eqs. 1-2). Among planes of equal cost the one nearest the middle of the box wins (the
+/// first of two equally near): where no plane removes empty space, as inside dense regions of
+/// deep trees, splits stay balanced instead of peeling Δl-thin slabs off one side.
+/// Scratch vectors are the caller's.
 template <Splitter S>
 Decision decide(const Node& n, const S& splitter, const Config& c, const Limits& lim, volume::Dims dims,
                 std::vector<std::uint32_t>& planes, std::vector<Split>& evals) {
@@ -184,10 +188,12 @@ Decision decide(const Node& n, const S& splitter, const Config& c, const Limits&
     evals.assign(planes.size(), Split{});
     splitter.evaluate(n.box, axis, std::span<const std::uint32_t>(planes), std::span<Split>(evals));
     std::size_t best = 0;
-    std::uint64_t best_cost = ~std::uint64_t{0};
+    std::uint64_t best_cost = ~std::uint64_t{0}, best_offset = 0;
+    std::uint64_t middle2 = std::uint64_t{n.box.lo[axis]} + n.box.hi[axis];  // twice the middle
     for (std::size_t k = 0; k < evals.size(); ++k) {
         std::uint64_t cost = evals[k].lower.volume() + evals[k].upper.volume();
-        if (cost < best_cost) best_cost = cost, best = k;
+        std::uint64_t p2 = 2 * std::uint64_t{planes[k]}, offset = p2 > middle2 ? p2 - middle2 : middle2 - p2;
+        if (cost < best_cost || (cost == best_cost && offset < best_offset)) best_cost = cost, best = k, best_offset = offset;
     }
     double removed = vol - static_cast<double>(best_cost);
     if (removed < c.min_removed_fraction * vol) return d;

@@ -12,6 +12,7 @@
 #define SYLVA_KDTREE_BUILD_PARALLEL_HPP
 
 #include <chrono>
+#include <algorithm>
 #include <cstdint>
 #include <mutex>
 #include <span>
@@ -28,6 +29,9 @@ template <std::uint32_t B, Executor X>
 struct PartialSvtSplitter {
     const volume::PartialSvt<B>* svt;
     X* exec;
+    /// Nodes overlapping fewer non-empty blocks than this are evaluated on the calling thread
+    /// (the driver already runs the nodes of a level in parallel).
+    std::size_t parallel_blocks = 8;
 
     [[nodiscard]] VoxelBox root_box() const { return svt->tight_box(volume::full_box(svt->dims()), *exec); }
     [[nodiscard]] std::uint64_t occupied() const { return svt->total(); }
@@ -37,6 +41,12 @@ struct PartialSvtSplitter {
         svt->for_blocks(box, [&](std::size_t b) {
             if (svt->block_total(b)) ids.push_back(b);
         });
+        if (ids.size() < parallel_blocks) {  // few blocks: not worth tasks
+            std::vector<Split> acc(planes.size());
+            for (std::size_t b : ids) contribute(b, box, axis, planes, acc);
+            std::copy(acc.begin(), acc.end(), out.begin());
+            return;
+        }
         std::mutex m;
         exec->parallel_for(0, ids.size(), 2, [&](std::size_t lo, std::size_t hi) {
             std::vector<Split> acc(planes.size());

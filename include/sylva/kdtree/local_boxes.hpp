@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <cstring>
 #include <mutex>
 #include <numeric>
 #include <string>
@@ -97,21 +98,28 @@ struct LocalBoxes {
 
 namespace detail {
 
-/// ORs one row (local y = ly, z = lz within its blocks) into the masks of its blocks; returns
-/// the number of occupied voxels.
-inline std::uint64_t accumulate_row(const std::uint8_t* row, std::uint32_t nx, std::uint32_t ly, std::uint32_t lz,
-                                    std::vector<BlockMasks>& masks) {
-    std::uint64_t occupied = 0;
+/// The 8-bit x mask of up to 8 bytes that are each 0 or 1 (bit k = byte k).
+inline std::uint32_t row_mask(const std::uint8_t* p, std::uint32_t n) {
+    if (n == 8) {  // a whole block: one multiply gathers the eight low bits
+        std::uint64_t w;
+        std::memcpy(&w, p, 8);
+        return static_cast<std::uint32_t>((w * 0x0102040810204080ull) >> 56);
+    }
+    std::uint32_t m = 0;
+    for (std::uint32_t k = 0; k < n; ++k) m |= std::uint32_t{p[k]} << k;
+    return m;
+}
+
+/// ORs one row (local y = ly, z = lz within its blocks) into the masks of its blocks.
+inline void accumulate_row(const std::uint8_t* row, std::uint32_t nx, std::uint32_t ly, std::uint32_t lz,
+                           std::vector<BlockMasks>& masks) {
     for (std::uint32_t bx = 0; bx < masks.size(); ++bx) {
-        std::uint32_t x0 = bx * 8u, n = std::min(8u, nx - x0), m = 0;
-        for (std::uint32_t k = 0; k < n; ++k) m |= std::uint32_t{row[x0 + k]} << k;
+        std::uint32_t x0 = bx * 8u, m = row_mask(row + x0, std::min(8u, nx - x0));
         if (!m) continue;
         masks[bx].x |= m;
         masks[bx].y |= 1u << ly;
         masks[bx].z |= 1u << lz;
-        occupied += static_cast<std::uint64_t>(std::popcount(m));
     }
-    return occupied;
 }
 
 /// Local boxes of one row of blocks (by, bz), appended to `codes`/`boxes`.
@@ -124,7 +132,8 @@ std::uint64_t block_row(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t 
     for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
         for (std::uint32_t y = by * 8u; y < std::min(d.y, by * 8u + 8u); ++y) {
             src.row(0, d.x, y, z, row.data());
-            occupied += accumulate_row(row.data(), d.x, y & 7u, z & 7u, masks);
+            occupied += volume::detail::count_ones(row.data(), d.x);
+            accumulate_row(row.data(), d.x, y & 7u, z & 7u, masks);
         }
     for (std::uint32_t bx = 0; bx < nb.x; ++bx)
         if (masks[bx].x) out.emplace_back(morton3(uvec3(bx, by, bz)), box_from_masks(uvec3(bx, by, bz), masks[bx]));

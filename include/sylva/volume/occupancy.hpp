@@ -22,6 +22,7 @@
 #include <atomic>
 #include <concepts>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <utility>
 #include <vector>
@@ -98,6 +99,24 @@ concept OccupancySource = requires(const S& s, std::uint32_t c, std::uint8_t* ou
     s.row(c, c, c, c, out);
 };
 
+namespace detail {
+
+/// Number of ones in `n` bytes that are each 0 or 1 (eight at a time: the byte sum of a 64-bit
+/// word is the top byte of word * 0x0101010101010101).
+inline std::uint32_t count_ones(const std::uint8_t* p, std::size_t n) {
+    std::uint32_t c = 0;
+    std::size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        std::uint64_t w;
+        std::memcpy(&w, p + i, 8);
+        c += static_cast<std::uint32_t>((w * 0x0101010101010101ull) >> 56);
+    }
+    for (; i < n; ++i) c += p[i];
+    return c;
+}
+
+}  // namespace detail
+
 /// V1: one byte per voxel, 1 = occupied (x fastest, as the grid).
 struct Occupancy {
     Dims dims{0};
@@ -113,7 +132,8 @@ struct Occupancy {
     /// Number of occupied voxels.
     [[nodiscard]] std::uint64_t count() const {
         std::uint64_t n = 0;
-        for (std::uint8_t v : voxels) n += v;
+        for (std::size_t i = 0; i < voxels.size(); i += 1u << 20)
+            n += detail::count_ones(voxels.data() + i, std::min<std::size_t>(1u << 20, voxels.size() - i));
         return n;
     }
 };
@@ -163,14 +183,16 @@ public:
     void row(std::uint32_t x0, std::uint32_t x1, std::uint32_t y, std::uint32_t z, std::uint8_t* out) const {
         std::size_t at = voxel_index(dims, x0, y, z), n = x1 - x0;
         switch (volume_->type) {
-            case ScalarType::U8: {
-                const auto* p = reinterpret_cast<const std::uint8_t*>(volume_->bytes.data()) + at;
-                for (std::size_t i = 0; i < n; ++i) out[i] = lut_[p[i]];
+            case ScalarType::U8: {  // locals: `out` may alias anything, keep the loop free of reloads
+                const std::uint8_t* __restrict lut = lut_.data();
+                const auto* __restrict p = reinterpret_cast<const std::uint8_t*>(volume_->bytes.data()) + at;
+                for (std::size_t i = 0; i < n; ++i) out[i] = lut[p[i]];
                 break;
             }
             case ScalarType::U16: {
-                auto g = volume_->view<std::uint16_t>();
-                for (std::size_t i = 0; i < n; ++i) out[i] = lut_[g.data[at + i]];
+                const std::uint8_t* __restrict lut = lut_.data();
+                const std::uint16_t* __restrict p = volume_->view<std::uint16_t>().data.data() + at;
+                for (std::size_t i = 0; i < n; ++i) out[i] = lut[p[i]];
                 break;
             }
             default: float_row(at, n, out); break;
@@ -289,7 +311,7 @@ std::uint64_t count_occupied(const S& src, X& exec) {
         std::uint64_t n = 0;
         for (std::size_t r = lo; r < hi; ++r) {
             src.row(0, d.x, static_cast<std::uint32_t>(r % d.y), static_cast<std::uint32_t>(r / d.y), buf.data());
-            for (std::uint8_t v : buf) n += v;
+            n += detail::count_ones(buf.data(), buf.size());
         }
         total.fetch_add(n);
     });

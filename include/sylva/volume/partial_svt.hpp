@@ -7,12 +7,15 @@
 // counts of the blocks it overlaps. Tight boxes are found block by block and combined by union
 // (Zellmann et al. Fig. 2 and Alg. 1). Edge blocks of grids whose dimensions are not multiples
 // of B are clipped to the grid. Blocks without occupied voxels skip their table entirely (only
-// their total, 0, is stored), which makes sparse volumes cheap.
+// their total, 0, is stored), which makes sparse volumes cheap. The build reads the source a
+// whole grid row at a time (rows of blocks in parallel) and scatters the rows into the blocks,
+// so a volume classified on the fly is read in its own order, not block by block.
 #ifndef SYLVA_VOLUME_PARTIAL_SVT_HPP
 #define SYLVA_VOLUME_PARTIAL_SVT_HPP
 
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <mutex>
 #include <numeric>
 #include <vector>
@@ -51,9 +54,10 @@ public:
         std::size_t n = block_count();
         totals_.assign(n, 0u);
         sums_.resize(n * block_voxels);
-        exec.parallel_for(0, n, 1, [&](std::size_t lo, std::size_t hi) {
-            std::vector<std::uint8_t> scratch(block_voxels);
-            for (std::size_t b = lo; b < hi; ++b) build_block(src, b, scratch.data());
+        std::size_t block_rows = std::size_t{blocks_.y} * blocks_.z;
+        exec.parallel_for(0, block_rows, 1, [&](std::size_t lo, std::size_t hi) {
+            std::vector<std::uint8_t> row(dims_.x), v1(blocks_.x * block_voxels);
+            for (std::size_t r = lo; r < hi; ++r) build_block_row(src, r, row.data(), v1.data());
         });
     }
 
@@ -89,19 +93,8 @@ public:
     [[nodiscard]] std::uint32_t count_in_block(std::size_t b, const VoxelBox& region) const {
         if (totals_[b] == 0) return 0;
         VoxelBox bb = block_box(b);
-        VoxelBox r = intersect(region, bb);
-        if (r.empty()) return 0;
-        uvec3 l = r.lo - bb.lo, h = r.hi - bb.lo;
-        const std::uint16_t* t = sums_.data() + b * block_voxels;
-        auto p = [t](std::uint32_t x, std::uint32_t y, std::uint32_t z) -> std::uint32_t {
-            return (x == 0 || y == 0 || z == 0) ? 0u : t[(x - 1) + B * ((y - 1) + B * (z - 1))];
-        };
-        std::int32_t c = std::int32_t(p(h.x, h.y, h.z)) - std::int32_t(p(l.x, h.y, h.z)) - std::int32_t(p(h.x, l.y, h.z)) -
-                         std::int32_t(p(h.x, h.y, l.z)) + std::int32_t(p(l.x, l.y, h.z)) + std::int32_t(p(l.x, h.y, l.z)) +
-                         std::int32_t(p(h.x, l.y, l.z)) - std::int32_t(p(l.x, l.y, l.z));
-        return static_cast<std::uint32_t>(c);
+        return count_local(b, bb, intersect(region, bb));
     }
-
     /// Occupied voxels of `region`: the sum over the blocks it overlaps.
     [[nodiscard]] std::uint64_t count(const VoxelBox& region) const {
         std::uint64_t n = 0;
@@ -112,8 +105,8 @@ public:
     /// Tight box of the occupied voxels of `region` inside block b (binary search, eq. 3).
     [[nodiscard]] VoxelBox tight_box_in_block(std::size_t b, const VoxelBox& region) const {
         if (totals_[b] == 0) return VoxelBox{};
-        return shrink_to_occupied(intersect(region, block_box(b)),
-                                  [&](const VoxelBox& r) { return count_in_block(b, r); });
+        VoxelBox bb = block_box(b);
+        return shrink_to_occupied(intersect(region, bb), [&](const VoxelBox& r) { return count_local(b, bb, r); });
     }
 
     /// Tight box of the occupied voxels of `region`: the union of the blocks' local boxes.
@@ -152,19 +145,44 @@ public:
     }
 
 private:
-    /// Classifies block b into `v1` (B^3 bytes, x fastest with stride B), counts it, and sums
-    /// it into the block's table (eq. 5 in the running-row form of svt.hpp) unless empty.
+    /// Eq. 6 in block b, whose box is bb, for a region r inside bb (empty: 0).
+    [[nodiscard]] std::uint32_t count_local(std::size_t b, const VoxelBox& bb, const VoxelBox& r) const {
+        if (r.empty()) return 0;
+        uvec3 l = r.lo - bb.lo, h = r.hi - bb.lo;
+        const std::uint16_t* t = sums_.data() + b * block_voxels;
+        auto p = [t](std::uint32_t x, std::uint32_t y, std::uint32_t z) -> std::int32_t {
+            return (x == 0 || y == 0 || z == 0) ? 0 : std::int32_t{t[(x - 1) + B * ((y - 1) + B * (z - 1))]};
+        };
+        std::int32_t c = p(h.x, h.y, h.z) - p(l.x, h.y, h.z) - p(h.x, l.y, h.z) - p(h.x, h.y, l.z) + p(l.x, l.y, h.z) +
+                         p(l.x, h.y, l.z) + p(h.x, l.y, l.z) - p(l.x, l.y, l.z);
+        return static_cast<std::uint32_t>(c);
+    }
+
+    /// Builds the row of blocks r (r = by + blocks.y * bz): classifies whole grid rows (one
+    /// streaming read), scatters them into the blocks' occupancy `v1` (B^3 bytes a block, x
+    /// fastest with stride B), then counts and sums each block.
     template <OccupancySource S>
-    void build_block(const S& src, std::size_t b, std::uint8_t* v1) {
+    void build_block_row(const S& src, std::size_t r, std::uint8_t* row, std::uint8_t* v1) {
+        std::size_t first = block_index(uvec3(0u, static_cast<std::uint32_t>(r % blocks_.y),
+                                              static_cast<std::uint32_t>(r / blocks_.y)));
+        VoxelBox bb = block_box(first);
+        for (std::uint32_t z = 0; z < bb.hi.z - bb.lo.z; ++z)
+            for (std::uint32_t y = 0; y < bb.hi.y - bb.lo.y; ++y) {
+                src.row(0, dims_.x, bb.lo.y + y, bb.lo.z + z, row);
+                for (std::uint32_t bx = 0; bx < blocks_.x; ++bx)
+                    std::memcpy(v1 + bx * block_voxels + B * (y + B * z), row + bx * B, std::min(B, dims_.x - bx * B));
+            }
+        for (std::uint32_t bx = 0; bx < blocks_.x; ++bx) sum_block(first + bx, v1 + bx * block_voxels);
+    }
+
+    /// Counts block b from its occupancy `v1` and, unless it is empty, sums it into the block's
+    /// table (eq. 5 in the running-row form of svt.hpp).
+    void sum_block(std::size_t b, const std::uint8_t* v1) {
         VoxelBox bb = block_box(b);
         uvec3 e = bb.hi - bb.lo;
         std::uint32_t total = 0;
         for (std::uint32_t z = 0; z < e.z; ++z)
-            for (std::uint32_t y = 0; y < e.y; ++y) {
-                std::uint8_t* row = v1 + B * (y + B * z);
-                src.row(bb.lo.x, bb.hi.x, bb.lo.y + y, bb.lo.z + z, row);
-                for (std::uint32_t x = 0; x < e.x; ++x) total += row[x];
-            }
+            for (std::uint32_t y = 0; y < e.y; ++y) total += detail::count_ones(v1 + B * (y + B * z), e.x);
         totals_[b] = total;
         if (total == 0) return;
         std::uint16_t* t = sums_.data() + b * block_voxels;
@@ -175,10 +193,10 @@ private:
                 const std::uint16_t* below = y ? out - B : zeros;
                 const std::uint16_t* back = z ? out - B * B : zeros;
                 const std::uint16_t* back_below = (y && z) ? out - B * B - B : zeros;
-                const std::uint8_t* row = v1 + B * (y + B * z);
+                const std::uint8_t* in = v1 + B * (y + B * z);
                 std::uint16_t run = 0;
                 for (std::uint32_t x = 0; x < e.x; ++x) {
-                    run = static_cast<std::uint16_t>(run + row[x]);
+                    run = static_cast<std::uint16_t>(run + in[x]);
                     out[x] = static_cast<std::uint16_t>(run + below[x] + back[x] - back_below[x]);
                 }
             }
