@@ -107,7 +107,7 @@ TEST_CASE("Iso culling by node ranges gives the identical image with fewer steps
     }
 }
 
-TEST_CASE("Node ranges bound every leaf's reconstruction, and culling skips what cannot hit", "[dvr]") {
+TEST_CASE("Node ranges bound the reconstruction, and culling skips what cannot reach the iso value", "[dvr]") {
     BlobScene s = blob_scene(bih::NodeFormat::Float32);
     shared::Words w{s.bih.data(), s.bih.size()};
     // The root's range holds all densities of the grid's classified voxels.
@@ -115,15 +115,16 @@ TEST_CASE("Node ranges bound every leaf's reconstruction, and culling skips what
     float dmax = *std::max_element(s.grid.values.begin(), s.grid.values.end());
     CHECK(lo <= 0.05f);
     CHECK(hi >= dmax - 1e-3f);
-    CHECK(shared::sylva_bih_range_excludes(s.ranges[0], hi + 0.01f));
-    CHECK_FALSE(shared::sylva_bih_range_excludes(s.ranges[0], 0.5f * (lo + hi)));
+    CHECK(shared::sylva_bih_range_below(s.ranges[0], hi + 0.01f));
+    CHECK_FALSE(shared::sylva_bih_range_below(s.ranges[0], 0.5f * (lo + hi)));
+    CHECK_FALSE(shared::sylva_bih_range_below(s.ranges[0], 0.0f));
     // An iso value above every density: the root is culled in one step, nothing is hit.
     shared::SylvaBihIter it;
     shared::sylva_bih_init(it, w, std::uint32_t(s.bih.size()), vec3(-5.0f), vec3(1.0f), 0.0f, shared::sylva_inf());
     std::uint32_t leaf;
     float t0, t1;
     shared::Words rw{s.ranges.data(), s.ranges.size()};
-    CHECK_FALSE(shared::sylva_bih_next_in_range(it, w, rw, 1.0f, leaf, t0, t1));
+    CHECK_FALSE(shared::sylva_bih_next_reaching(it, w, rw, 1.0f, leaf, t0, t1));
     CHECK(it.steps == 1u);
     CHECK(it.status == SYLVA_ITER_DONE);
 }

@@ -40,7 +40,7 @@ enum class VolumeMode : std::uint32_t {
     DvrReference = SYLVA_VOLUME_MODE_DVR,     ///< ray marcher over the grid (Kinkelin 6.2)
     BihSingle = SYLVA_VOLUME_MODE_BIH_SINGLE,  ///< one sample per BIH leaf (Kinkelin 4.3)
     BihMulti = SYLVA_VOLUME_MODE_BIH_MULTI,    ///< the marcher's lattice inside each leaf (4.3)
-    BihIso = SYLVA_VOLUME_MODE_BIH_ISO,        ///< first crossing of an iso value (4.1, 4.3)
+    BihIso = SYLVA_VOLUME_MODE_BIH_ISO,        ///< first point reaching an iso value (4.1, 4.3)
 };
 
 /// Everything a volume image depends on besides the data.
@@ -71,8 +71,8 @@ struct VolumeRenderParams {
     /// Iso value (normalised density) of VolumeMode::BihIso.
     float iso = 0.5f;
     VolumeMode mode = VolumeMode::DvrReference;
-    /// Iso mode: skip subtrees whose node range excludes the iso value (Kinkelin 4.1); needs
-    /// VoxelBihView::ranges.
+    /// Iso mode: skip subtrees whose node-range maximum stays below the iso value (Kinkelin
+    /// 4.1); needs VoxelBihView::ranges. The image is identical, the traversal shorter.
     bool iso_culling = false;
 };
 

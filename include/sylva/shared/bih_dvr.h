@@ -10,9 +10,14 @@
 //  * multi-sample: the marcher's global lattice t_k = k dt inside [t_in, t_out), each sample
 //    with the leaf's linear density; a leaf shorter than dt may get no sample (as the paper
 //    says), and consecutive leaves keep equidistant samples;
-//  * iso: the first point where a leaf's linear density crosses the iso value (analytic on
-//    the segment, either direction), shaded with the leaf gradient in the TF's colour at the
-//    iso value, opaque. Optionally culled by the node-range buffer `ranges` (bih_iter.h).
+//  * iso: the first point where the density along the ray reaches the iso value, shaded with
+//    the leaf gradient in the TF's colour at the iso value, opaque. Along the ray the density
+//    is each leaf's linear function (0 between leaves), so that point is either inside a leaf
+//    (analytic crossing on the segment, rising through iso) or where the ray enters a leaf
+//    that starts at or above iso: neighbouring leaves' linear functions disagree on their
+//    shared face, and crossings only inside leaves would leave cracks where the density jumps
+//    over the iso value there. Optional culling by the node-range buffer `ranges` skips the
+//    subtrees whose maximum stays below iso (Kinkelin 4.1; sylva_bih_next_reaching).
 // Colour is shaded (dvr_common.h) with the leaf gradient divided by the voxel size.
 //
 // Order. Kinkelin section 4 warns that overlapping sibling boxes can disorder the leaves; for
@@ -34,25 +39,25 @@ SYLVA_BEGIN_NAMESPACE
 
 /// Node-range culling (Kinkelin 4.1): `range` is a node's word of a node-range buffer, bits
 /// 0-15 the minimum and bits 16-31 the maximum of the reconstructed density in the node's
-/// subtree as unorm16 (q / 65535). True when `iso` lies outside [min, max] widened by one
-/// unorm16 step (absorbing the rounding of the reconstruction), so no leaf below can reach it.
-SYLVA_FN bool sylva_bih_range_excludes(uint range, float iso) {
-    float lo = float(range & 0xFFFFu) * (1.0f / 65535.0f);
+/// subtree as unorm16 (q / 65535). True when the maximum, plus one unorm16 step (absorbing the
+/// rounding of the reconstruction), is below `iso`: no leaf below can reach the iso value.
+/// (A subtree entirely above iso is never culled: the surface lies where the ray enters it.)
+SYLVA_FN bool sylva_bih_range_below(uint range, float iso) {
     float hi = float(range >> 16u) * (1.0f / 65535.0f);
-    return iso < lo - (1.0f / 65535.0f) || iso > hi + (1.0f / 65535.0f);
+    return hi + (1.0f / 65535.0f) < iso;
 }
 
 /// sylva_bih_next that skips every node (inner or leaf) whose density range, word `node` of
-/// the buffer `ranges` (one word per encoded node index), excludes `iso`. A skipped node
+/// the buffer `ranges` (one word per encoded node index), stays below `iso`. A skipped node
 /// counts as a step but its subtree is never visited.
-SYLVA_FN bool sylva_bih_next_in_range(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYLVA_BUF(ranges), float iso,
+SYLVA_FN bool sylva_bih_next_reaching(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYLVA_BUF(ranges), float iso,
                                       SYLVA_OUT(uint) leaf, SYLVA_OUT(float) t0, SYLVA_OUT(float) t1) {
     leaf = SYLVA_NO_NODE;
     t0 = 0.0f;
     t1 = 0.0f;
     while (it.status == SYLVA_ITER_RUNNING) {
         if (!sylva_bih_advance(it)) break;
-        if (sylva_bih_range_excludes(SYLVA_LOAD(ranges, it.node), iso)) {
+        if (sylva_bih_range_below(SYLVA_LOAD(ranges, it.node), iso)) {
             it.node = SYLVA_NO_NODE;
         } else if (sylva_bih_visit(it, SYLVA_PASS_BUF(words), leaf, t0, t1)) {
             return true;
@@ -147,15 +152,14 @@ SYLVA_FN vec4 sylva_bih_dvr_multi(SYLVA_BUF(words), SYLVA_BUF(tf), SylvaDvrParam
     return sylva_dvr_result(acc);
 }
 
-/// Where the leaf's linear density crosses `iso` on [t0, t1] (first point, either direction),
-/// or +inf when it does not.
-SYLVA_FN float sylva_bih_iso_crossing(SylvaVoxel v, vec3 c, vec3 voxel_size, vec3 o, vec3 d, float t0, float t1,
-                                      float iso) {
+/// The first point of [t0, t1] where the leaf's linear density reaches `iso`: t0 when it
+/// enters at or above iso, the analytic crossing when it rises through iso, +inf otherwise.
+SYLVA_FN float sylva_bih_iso_reach(SylvaVoxel v, vec3 c, vec3 voxel_size, vec3 o, vec3 d, float t0, float t1,
+                                   float iso) {
     SYLVA_PRECISE float a = sylva_voxel_density_at(v, sylva_dvr_at(o, d, t0), c, voxel_size) - iso;
+    if (a >= 0.0f) return t0;
     SYLVA_PRECISE float b = sylva_voxel_density_at(v, sylva_dvr_at(o, d, t1), c, voxel_size) - iso;
-    if (a == 0.0f) return t0;
-    bool crosses = (a < 0.0f) ? (b >= 0.0f) : (b <= 0.0f);
-    if (!crosses) return sylva_inf();
+    if (b < 0.0f) return sylva_inf();
     SYLVA_PRECISE float t = t0 + (t1 - t0) * (a / (a - b));
     return sylva_max(t0, sylva_min(t, t1));
 }
@@ -164,12 +168,12 @@ SYLVA_FN float sylva_bih_iso_crossing(SylvaVoxel v, vec3 c, vec3 voxel_size, vec
 SYLVA_FN bool sylva_bih_iso_next(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYLVA_BUF(ranges), SylvaDvrParams p,
                                  SYLVA_OUT(uint) leaf, SYLVA_OUT(float) t0, SYLVA_OUT(float) t1) {
     if ((p.flags & SYLVA_DVR_FLAG_ISO_CULLING) != 0u) {
-        return sylva_bih_next_in_range(it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(ranges), p.iso, leaf, t0, t1);
+        return sylva_bih_next_reaching(it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(ranges), p.iso, leaf, t0, t1);
     }
     return sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t0, t1);
 }
 
-/// Iso-surface of the leaves' linear densities: the nearest crossing of p.iso. Returns the
+/// Iso-surface of the leaves' linear densities: the first point reaching p.iso. Returns the
 /// shaded TF colour at the iso value, opaque, or transparent black when the ray misses;
 /// `t_hit` receives the distance along the normalised direction (+inf on a miss).
 SYLVA_FN vec4 sylva_bih_iso(SYLVA_BUF(words), SYLVA_BUF(ranges), SYLVA_BUF(tf), SylvaDvrParams p, vec3 origin,
@@ -186,7 +190,7 @@ SYLVA_FN vec4 sylva_bih_iso(SYLVA_BUF(words), SYLVA_BUF(ranges), SYLVA_BUF(tf), 
     while (sylva_bih_iso_next(it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(ranges), p, leaf, t0, t1)) {
         SylvaVoxel v = sylva_voxel_unpack(sylva_bih_payload(SYLVA_PASS_BUF(words), it.hdr, leaf));
         vec3 c = sylva_bih_dvr_center(it.hdr, it.leaf_lo, it.leaf_hi);
-        float t = sylva_bih_iso_crossing(v, c, p.spacing, origin, d, t0, t1, p.iso);
+        float t = sylva_bih_iso_reach(v, c, p.spacing, origin, d, t0, t1, p.iso);
         if (t < t_hit) {  // leaves come front to back: what is left can only start after t
             t_hit = t;
             g = v.gradient;
