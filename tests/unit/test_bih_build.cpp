@@ -1,6 +1,7 @@
 // Builder: structure invariants, statistics, configuration, parallel == serial.
 #include <catch2/catch.hpp>
 
+#include <cstdint>
 #include <functional>
 
 #include <sylva/bih/build.hpp>
@@ -53,6 +54,72 @@ std::size_t check_structure(const bih::Tree& t, std::span<const BoxElement> elem
     walk(0, t.bounds, 0);
     for (int s : seen) REQUIRE(s == 1);
     return leaves;
+}
+
+/// Deterministic element sets (splitmix64, no std distributions, so the same on every platform).
+inline std::uint64_t golden_next(std::uint64_t& s) {
+    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+inline float golden_unit(std::uint64_t& s) { return static_cast<float>(golden_next(s) >> 40) * (1.0f / 16777216.0f); }
+
+std::vector<BoxElement> golden_boxes(int kind, std::size_t n) {
+    std::uint64_t s = 1234u + static_cast<std::uint64_t>(kind);
+    std::vector<BoxElement> out(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        vec3 p{golden_unit(s), golden_unit(s), golden_unit(s)};
+        vec3 e{golden_unit(s), golden_unit(s), golden_unit(s)};
+        if (kind == 0) out[i].box = {p, p + 0.03f * e};                                  // uniform
+        if (kind == 1) out[i].box = {p * p * p, p * p * p + 0.01f * e};                    // dense corner
+        if (kind == 2) {                                                                  // degenerate
+            switch (i % 4) {
+                case 0: out[i].box = {p, p}; break;
+                case 1: out[i].box = {vec3(0.25f), vec3(0.5f)}; break;
+                case 2: out[i].box = {vec3(p.x, 0.0f, p.z), vec3(p.x + 0.1f, 0.0f, p.z)}; break;
+                default: out[i].box = {vec3(-0.0f, p.y, 0.0f), vec3(0.0f, p.y + e.y, 0.5f)}; break;
+            }
+        }
+    }
+    return out;
+}
+
+/// FNV-1a over everything the builder decides: nodes, order, bounds (bits), statistics.
+std::uint64_t fingerprint(const bih::Tree& t) {
+    std::uint64_t h = 1469598103934665603ull;
+    auto add = [&h](const void* p, std::size_t n) {
+        const unsigned char* b = static_cast<const unsigned char*>(p);
+        for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    };
+    for (const bih::Node& n : t.nodes) {
+        add(n.plane, sizeof n.plane);
+        add(n.child, sizeof n.child);
+        add(&n.first, 4);
+        add(&n.count, 4);
+        add(&n.axis, 1);
+        std::uint8_t single = n.single ? 1 : 0;
+        add(&single, 1);
+    }
+    add(t.order.data(), t.order.size() * 4);
+    add(&t.bounds.lo, 12);
+    add(&t.bounds.hi, 12);
+    std::uint64_t st[6] = {t.stats.elements, t.stats.nodes, t.stats.leaves, t.stats.single_child_nodes,
+                           t.stats.max_depth, t.stats.max_leaf_elements};
+    add(st, sizeof st);
+    return h;
+}
+
+/// The configurations the golden values cover.
+std::vector<bih::Config> golden_configs() {
+    std::vector<bih::Config> out(5);
+    out[1].empty_children = bih::EmptyChildren::Infinite;
+    out[2].max_leaf_elements = 4;
+    out[2].trim_leaves = false;
+    out[3].max_leaf_elements = 3;
+    out[3].empty_children = bih::EmptyChildren::Infinite;
+    out[4].max_depth = 7;
+    return out;
 }
 }  // namespace
 
@@ -129,4 +196,27 @@ TEST_CASE("progress is reported up to completion", "[bih][build]") {
     bih::build(std::span<const BoxElement>(elems), cfg);
     CHECK(calls >= 50);
     CHECK(last == Approx(1.0));
+}
+
+TEST_CASE("the builder makes the same trees as the reference implementation (golden fingerprints)", "[bih][build]") {
+    // Fingerprints of the trees the original builder (sylva 704a01c: index-permutation
+    // partition, per-subtree node vectors) made for these inputs. Speed-ups of the builder must
+    // keep nodes, planes, order and statistics bit for bit: other stages and users rely on them.
+    const std::uint64_t want[3][5] = {
+        {0xb385c981be564f0full, 0x68446ba804f1cac6ull, 0xe9ed0bb833465069ull, 0x2775ec56764c7ec7ull, 0x5d2a67f98f53e435ull},
+        {0xa1ebfb8263122562ull, 0xb8c2313e3f0e16e8ull, 0xb3ef7cdd8f56bd1eull, 0x98d5973bf9d975e4ull, 0x29e98ceca135b688ull},
+        {0x8a9ad69c5a7a4329ull, 0x89fc734e40eb5246ull, 0x72a1ede4a016e658ull, 0x65c0ea1248404f9bull, 0x013db559a57d33c7ull},
+    };
+    ThreadPool pool(2);
+    for (int kind = 0; kind < 3; ++kind) {
+        auto elems = golden_boxes(kind, kind == 2 ? 3001 : 20000);
+        std::span<const BoxElement> es(elems);
+        std::vector<bih::Config> configs = golden_configs();
+        for (std::size_t c = 0; c < configs.size(); ++c) {
+            INFO("set " << kind << ", config " << c);
+            CHECK(fingerprint(bih::build(es, configs[c])) == want[kind][c]);
+            configs[c].parallel_threshold = 500;  // many parallel subtrees: chunk assembly
+            CHECK(fingerprint(bih::build(es, configs[c], pool)) == want[kind][c]);
+        }
+    }
 }

@@ -2,14 +2,19 @@
 // Waechter and Keller 2006), generic over any range of bounded elements.
 //
 // Each node is split in the middle of its box's longest axis; elements go left when the centre
-// of their box is on or left of the plane, right otherwise (an in-place partition of an index
-// permutation); the two bounding planes are the maximum of the left boxes and the minimum of
-// the right boxes, computed during the partition. Empty children follow Config::empty_children.
+// of their box is on or left of the plane, right otherwise (an in-place partition, here of
+// per-element records that carry box and index); the two bounding planes are the maximum of
+// the left boxes and the minimum of the right boxes, computed during the partition. Empty
+// children follow Config::empty_children.
 // Where the midpoint makes no progress (every element on one side and no plane trims the box),
 // the builder trims the axis with the most slack instead, and where the box is already tight,
 // splits at the middle of the element centres; elements whose centres all coincide stay in one
 // leaf. Every path ends at Config::max_depth (at most SYLVA_BIH_DEPTH_CAP), so the build always
 // terminates and the iterator's stack can never overflow.
+//
+// Parallel builds hand subtrees to executor tasks that write their nodes into chunks of their
+// own; one parallel pass then copies the chunks into the pre-order node array. The tree (nodes,
+// planes, order, statistics) is the same whatever the executor, bit for bit.
 #ifndef SYLVA_BIH_BUILD_HPP
 #define SYLVA_BIH_BUILD_HPP
 
@@ -19,7 +24,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
-#include <numeric>
+#include <memory>
 #include <span>
 #include <string>
 #include <utility>
@@ -51,68 +56,152 @@ struct Config {
     EmptyChildren empty_children = EmptyChildren::TrimBoth;
     /// Nodes at this depth become leaves whatever they hold; clamped to SYLVA_BIH_DEPTH_CAP.
     std::uint32_t max_depth = SYLVA_BIH_DEPTH_CAP;
-    /// Subtrees with more elements than this are built as parallel tasks on the executor.
-    std::size_t parallel_threshold = 1u << 15;
+    /// Subtrees with more elements than this are built as parallel tasks on the executor
+    /// (4096: a 10^4-element build already splits into tasks; does not change the tree).
+    std::size_t parallel_threshold = 4096;
     /// Called with the fraction of elements placed in leaves (0..1), possibly from several threads.
     std::function<void(double)> on_progress;
 };
 
 namespace detail {
 
-/// Per-element data the build reads: the box and its centre, computed once.
-struct Prims {
-    std::vector<Aabb> box;
-    std::vector<vec3> center;
+/// What the build partitions: an element's box and its index in the caller's array. The
+/// records move with the partition, so every pass reads them in sequence instead of
+/// gathering boxes through an index permutation (the build's cost at 10^6+ elements).
+/// Trivially constructible on purpose: arrays of them are filled in parallel, never zeroed.
+struct Prim {
+    float lo[3];
+    std::uint32_t index;
+    float hi[3];
+    std::uint32_t pad;  ///< 32 bytes: records move as two aligned 16-byte halves
+    /// Centre along `axis`, as lo * 0.5 + hi * 0.5 (no overflow for huge boxes).
+    [[nodiscard]] float center(int axis) const { return lo[axis] * 0.5f + hi[axis] * 0.5f; }
+    [[nodiscard]] Aabb box() const { return {vec3(lo[0], lo[1], lo[2]), vec3(hi[0], hi[1], hi[2])}; }
 };
 
-template <Bounded E, Executor X>
-Prims gather_prims(std::span<const E> elements, X& exec) {
-    Prims p;
-    p.box.resize(elements.size());
-    p.center.resize(elements.size());
-    std::atomic<std::size_t> bad{std::numeric_limits<std::size_t>::max()};
-    exec.parallel_for(0, elements.size(), 4096, [&](std::size_t lo, std::size_t hi) {
-        for (std::size_t i = lo; i < hi; ++i) {
-            Aabb b = bounds_of(elements[i]);
-            if (!b.finite() || b.empty()) {
-                std::size_t expected = bad.load();
-                while (i < expected && !bad.compare_exchange_weak(expected, i)) {
-                }
-            }
-            p.box[i] = b;
-            p.center[i] = b.lo * 0.5f + b.hi * 0.5f;  // no overflow for huge boxes
-        }
-    });
-    if (std::size_t i = bad.load(); i != std::numeric_limits<std::size_t>::max()) {
-        const Aabb& b = p.box[i];
-        throw Error("bih::build: element " + std::to_string(i) +
-                    (b.finite() ? " has an inverted box (lo > hi)" : " has non-finite bounds (NaN or inf)"));
-    }
-    return p;
-}
+/// Extends `u` by a record's box exactly as Aabb::extend does (the first of equal values wins).
+inline void extend(Aabb& u, const Prim& p) { u.extend(p.box()); }
 
-/// The box of elements order[begin, end).
-inline Aabb union_of(const Prims& p, const std::uint32_t* order, std::size_t begin, std::size_t end) {
+/// The box of records [begin, end), folded in order.
+inline Aabb union_of(const Prim* prims, std::size_t begin, std::size_t end) {
     Aabb u;
-    for (std::size_t i = begin; i < end; ++i) u.extend(p.box[order[i]]);
+    for (std::size_t i = begin; i < end; ++i) extend(u, prims[i]);
     return u;
 }
 
-/// Builds one subtree into a local node array (indices local to it); subtrees built in
-/// parallel are appended to their parent's array afterwards.
+/// Throws for the smallest index in `bad` (numeric_limits::max() when there is none).
+inline void throw_if_bad(std::size_t bad, const Prim* prims) {
+    if (bad == std::numeric_limits<std::size_t>::max()) return;
+    Aabb b = prims[bad].box();
+    throw Error("bih::build: element " + std::to_string(bad) +
+                (b.finite() ? " has an inverted box (lo > hi)" : " has non-finite bounds (NaN or inf)"));
+}
+
+/// Fills the records of all elements in parallel and returns the box of all of them. The
+/// union is taken per block and the blocks are merged in order, which gives the same bits as
+/// one fold in element order (min and max keep the first of equal values, +0 and -0 included).
+template <Bounded E, Executor X>
+Aabb gather_prims(std::span<const E> elements, Prim* prims, X& exec) {
+    const std::size_t n = elements.size(), block = 16384, blocks = (n + block - 1) / block;
+    std::vector<Aabb> part(blocks);
+    std::atomic<std::size_t> bad{std::numeric_limits<std::size_t>::max()};
+    exec.parallel_for(0, blocks, 1, [&](std::size_t blo, std::size_t bhi) {
+        for (std::size_t b = blo; b < bhi; ++b) {
+            Aabb u;
+            for (std::size_t i = b * block, end = std::min(n, i + block); i < end; ++i) {
+                Aabb e = bounds_of(elements[i]);
+                prims[i] = Prim{{e.lo.x, e.lo.y, e.lo.z}, static_cast<std::uint32_t>(i), {e.hi.x, e.hi.y, e.hi.z}, 0u};
+                if (!e.finite() || e.empty()) {
+                    std::size_t expected = bad.load();
+                    while (i < expected && !bad.compare_exchange_weak(expected, i)) {
+                    }
+                }
+                extend(u, prims[i]);
+            }
+            part[b] = u;
+        }
+    });
+    throw_if_bad(bad.load(), prims);
+    Aabb all;
+    for (const Aabb& u : part) all.extend(u);
+    return all;
+}
+
+/// Partitions a[0, n) in place by centre <= cut along `axis` and returns the left count;
+/// left_max folds the his of the left records, right_min the los of the right ones. The
+/// permutation is the one of the classic loop (Kinkelin 3.1): scan from the front; swap a right
+/// element with the last unexamined one and examine that next. The element examined next is so
+/// always one still at its original position: the next front one after a left element, the
+/// last unexamined one after a right one. This computes every side first (into `right`), then
+/// runs the loop with the sides looked up and the swap written with arithmetic selects: the
+/// classic loop mispredicts a branch on about half of the elements, this one on none.
+inline std::size_t partition_in_place(Prim* a, std::size_t n, int axis, float cut, std::uint8_t* right,
+                                      float& left_max, float& right_min) {
+    const float inf = std::numeric_limits<float>::infinity();
+    float lmax = -inf, rmin = inf;
+    if (n == 0) return 0;
+    for (std::size_t k = 0; k < n; ++k) right[k] = !(a[k].center(axis) <= cut);
+    std::size_t i = 0, j = n;             // [0, i) left and [j, n) right are final
+    std::size_t is_right = right[0];      // side of a[i], the element under examination
+    for (std::size_t k = 0; k < n; ++k) {
+        std::size_t span = j - 1 - i;     // a right a[i] swaps with a[j - 1]; a left one stays
+        std::size_t to_i = i + is_right * span, to_back = (j - 1) - is_right * span;
+        const float hi[2] = {a[i].hi[axis], -inf}, lo[2] = {inf, a[i].lo[axis]};
+        lmax = std::max(lmax, hi[is_right]);  // max(x, -inf) and min(x, +inf) keep x
+        rmin = std::min(rmin, lo[is_right]);
+        Prim x = a[to_i], y = a[to_back];
+        a[i] = x;
+        a[j - 1] = y;
+        std::size_t next = std::min(i + 1 + is_right * (span - 1), n - 1);  // wraps to i when span == 0
+        i += 1 - is_right;
+        j -= is_right;
+        is_right = right[next];
+    }
+    left_max = lmax;
+    right_min = rmin;
+    return i;
+}
+
+/// The nodes one build task made, in pre-order. The subtrees that parallel tasks built hang
+/// off it as sub-chunks; in the final array each follows the nodes this chunk had when the
+/// sub-chunk was attached (`at`), like the append of a serial build.
+struct Chunk {
+    struct Link {
+        std::uint32_t node = 0;  ///< local index of the parent node
+        std::uint32_t slot = 0;  ///< which child of it the sub-chunk's root is
+        std::size_t at = 0;      ///< nodes of this chunk that precede the sub-chunk
+        std::unique_ptr<Chunk> sub;
+    };
+    std::vector<Node> nodes;
+    std::vector<Link> links;
+    std::size_t leaves = 0, single_child_nodes = 0;
+    std::uint32_t max_depth = 0, max_leaf_elements = 0;
+    std::size_t total = 0;  ///< nodes here and in all sub-chunks (set by assembly)
+    std::size_t base = 0;   ///< final index of nodes[0] (set by assembly)
+
+    /// Final index of local node i.
+    [[nodiscard]] std::size_t final_index(std::size_t i) const {
+        std::size_t at = base + i;
+        for (const Link& l : links)
+            if (l.at <= i) at += l.sub->total;
+        return at;
+    }
+};
+
+/// Builds one subtree into a chunk (indices local to it); subtrees over more than
+/// Config::parallel_threshold elements go to parallel tasks with chunks of their own.
 template <Executor X>
 class SubtreeBuilder {
 public:
-    SubtreeBuilder(const Prims& prims, std::uint32_t* order, const Config& cfg, X& exec,
+    SubtreeBuilder(Prim* prims, std::uint32_t* order, std::uint8_t* side, const Config& cfg, X& exec,
                    std::atomic<std::size_t>& placed, std::size_t total)
-        : p_(prims), order_(order), cfg_(cfg), exec_(exec), placed_(placed), total_(total) {}
+        : p_(prims), order_(order), side_(side), cfg_(cfg), exec_(exec), placed_(placed), total_(total) {}
 
-    /// Builds the subtree over order[begin, end) with box `box`; returns its nodes, root first.
-    std::vector<Node> build(std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
-        std::vector<Node> out;
-        out.reserve(2 * (end - begin) + 1);
+    /// Builds the subtree over records [begin, end) with box `box` at `depth` into `out`;
+    /// writes the element order of its leaves into order[begin, end).
+    void build(Chunk& out, std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
+        out.nodes.reserve(reserve_for(end - begin));
         node(out, begin, end, box, depth);
-        return out;
     }
 
 private:
@@ -124,61 +213,94 @@ private:
         Aabb box[2];
     };
 
-    void node(std::vector<Node>& out, std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
-        std::uint32_t self = static_cast<std::uint32_t>(out.size());
-        out.emplace_back();
-        Split s = choose(begin, end, box, depth);
-        if (s.kind == Split::Leaf) {
-            make_leaf(out[self], begin, end);
+    /// Nodes to reserve for m elements: about 5 per element when leaves are trimmed (Kinkelin
+    /// Table 3: 2 leaves - 1 plus ~60 % single-child nodes), fewer with wider leaves.
+    std::size_t reserve_for(std::size_t m) const {
+        if (m > cfg_.parallel_threshold && exec_.concurrency() > 1) return 64;  // a chain, then tasks
+        return cfg_.trim_leaves ? 5 * m + 16 : 3 * m / cfg_.max_leaf_elements + 16;
+    }
+
+    void node(Chunk& out, std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
+        if (end - begin == 1) {
+            single(out, begin, box, depth);
             return;
         }
-        out[self].axis = static_cast<std::uint8_t>(s.axis);
-        out[self].plane[0] = s.plane[0];
-        out[self].plane[1] = s.plane[1];
+        std::uint32_t self = static_cast<std::uint32_t>(out.nodes.size());
+        out.nodes.emplace_back();
+        out.max_depth = std::max(out.max_depth, depth);
+        Split s = choose(begin, end, box, depth);
+        if (s.kind == Split::Leaf) {
+            make_leaf(out, out.nodes[self], begin, end);
+            return;
+        }
+        Node& n = out.nodes[self];
+        n.axis = static_cast<std::uint8_t>(s.axis);
+        n.plane[0] = s.plane[0];
+        n.plane[1] = s.plane[1];
         if (s.kind == Split::One) {
             bool left = s.mid == end;
             bool single = cfg_.empty_children == EmptyChildren::TrimBoth;
-            out[self].single = single;
-            std::uint32_t c = static_cast<std::uint32_t>(out.size());
-            out[self].child[(single || left) ? 0 : 1] = c;
+            n.single = single;
+            n.child[(single || left) ? 0 : 1] = static_cast<std::uint32_t>(out.nodes.size());
+            ++out.single_child_nodes;
             node(out, begin, end, s.box[0], depth + 1);
             return;
         }
-        children(out, self, begin, s.mid, end, s, depth);
+        children(out, self, begin, end, s, depth);
     }
 
-    void children(std::vector<Node>& out, std::uint32_t self, std::size_t begin, std::size_t mid, std::size_t end,
-                  const Split& s, std::uint32_t depth) {
+    /// The nodes of a one-element range (most nodes of a trimmed tree): the splits choose()
+    /// makes for it, a chain of single-child trims ending in a leaf, without partitions.
+    void single(Chunk& out, std::size_t at, Aabb box, std::uint32_t depth) {
+        const Aabb u = p_[at].box();
+        const bool trim_both = cfg_.empty_children == EmptyChildren::TrimBoth;
+        for (;; ++depth) {
+            out.max_depth = std::max(out.max_depth, depth);
+            Node& n = out.nodes.emplace_back();
+            if (depth >= cfg_.max_depth || !cfg_.trim_leaves || u == box) {
+                make_leaf(out, n, at, at + 1);
+                return;
+            }
+            int a = box.longest_axis();  // midpoint(): the element falls on one side
+            bool left = p_[at].center(a) <= box.lo[a] * 0.5f + box.hi[a] * 0.5f;
+            float lo = (trim_both || !left) ? u.lo[a] : box.lo[a];  // one_sided()
+            float hi = (trim_both || left) ? u.hi[a] : box.hi[a];
+            Split s = (lo == box.lo[a] && hi == box.hi[a]) ? trim(at, at + 1, box, u)
+                                                           : one_child(box, a, lo, hi, left ? at + 1 : at, left);
+            n.axis = static_cast<std::uint8_t>(s.axis);
+            n.plane[0] = s.plane[0];
+            n.plane[1] = s.plane[1];
+            n.single = trim_both;
+            n.child[(trim_both || s.mid == at + 1) ? 0 : 1] = static_cast<std::uint32_t>(out.nodes.size());
+            ++out.single_child_nodes;
+            box = s.box[0];
+        }
+    }
+
+    void children(Chunk& out, std::uint32_t self, std::size_t begin, std::size_t end, const Split& s,
+                  std::uint32_t depth) {
         bool parallel = exec_.concurrency() > 1 && (end - begin) > cfg_.parallel_threshold;
         if (!parallel) {
-            out[self].child[0] = static_cast<std::uint32_t>(out.size());
-            node(out, begin, mid, s.box[0], depth + 1);
-            out[self].child[1] = static_cast<std::uint32_t>(out.size());
-            node(out, mid, end, s.box[1], depth + 1);
+            out.nodes[self].child[0] = static_cast<std::uint32_t>(out.nodes.size());
+            node(out, begin, s.mid, s.box[0], depth + 1);
+            out.nodes[self].child[1] = static_cast<std::uint32_t>(out.nodes.size());
+            node(out, s.mid, end, s.box[1], depth + 1);
             return;
         }
-        std::vector<Node> left, right;
-        exec_.invoke([&] { left = build(begin, mid, s.box[0], depth + 1); },
-                     [&] { right = build(mid, end, s.box[1], depth + 1); });
-        out[self].child[0] = append(out, left);
-        out[self].child[1] = append(out, right);
+        auto left = std::make_unique<Chunk>(), right = std::make_unique<Chunk>();
+        exec_.invoke([&] { build(*left, begin, s.mid, s.box[0], depth + 1); },
+                     [&] { build(*right, s.mid, end, s.box[1], depth + 1); });
+        out.links.push_back({self, 0, out.nodes.size(), std::move(left)});
+        out.links.push_back({self, 1, out.nodes.size(), std::move(right)});
     }
 
-    /// Appends a subtree built elsewhere, shifting its child indices; returns its root index.
-    static std::uint32_t append(std::vector<Node>& out, const std::vector<Node>& sub) {
-        std::uint32_t base = static_cast<std::uint32_t>(out.size());
-        for (Node n : sub) {
-            for (auto& c : n.child)
-                if (c != kNoChild) c += base;
-            out.push_back(n);
-        }
-        return base;
-    }
-
-    void make_leaf(Node& n, std::size_t begin, std::size_t end) {
+    void make_leaf(Chunk& out, Node& n, std::size_t begin, std::size_t end) {
         n.axis = kLeaf;
         n.first = static_cast<std::uint32_t>(begin);
         n.count = static_cast<std::uint32_t>(end - begin);
+        for (std::size_t i = begin; i < end; ++i) order_[i] = p_[i].index;
+        ++out.leaves;
+        out.max_leaf_elements = std::max(out.max_leaf_elements, n.count);
         if (cfg_.on_progress) {
             std::size_t before = placed_.fetch_add(end - begin);
             std::size_t step = std::max<std::size_t>(total_ / 100, 1);
@@ -187,18 +309,19 @@ private:
         }
     }
 
+    /// The split of a node; may reorder (and move) its records, so it takes the buffers.
     Split choose(std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
         if (depth >= cfg_.max_depth) return Split{};
         bool small = (end - begin) <= cfg_.max_leaf_elements;
         Aabb u;
         if (small) {
             if (!cfg_.trim_leaves) return Split{};
-            u = union_of(p_, order_, begin, end);
+            u = union_of(p_, begin, end);
             if (u == box) return Split{};
         }
         Split s = midpoint(begin, end, box);
         if (s.kind != Split::Leaf) return s;
-        if (!small) u = union_of(p_, order_, begin, end);
+        if (!small) u = union_of(p_, begin, end);
         if (!(u == box)) return trim(begin, end, box, u);
         return centroid_split(begin, end, box);
     }
@@ -220,12 +343,12 @@ private:
     }
 
     /// All elements fell on one side of the plane: a node with one empty child if that trims.
-    Split one_sided(std::size_t begin, std::size_t end, const Aabb& box, Split s) {
+    Split one_sided(const std::size_t begin, std::size_t end, const Aabb& box, Split s) {
         int a = s.axis;
         bool left = s.mid == end;
         float lo = box.lo[a], hi = box.hi[a];
         if (cfg_.empty_children == EmptyChildren::TrimBoth) {
-            Aabb u = union_of(p_, order_, begin, end);
+            Aabb u = union_of(p_, begin, end);
             lo = u.lo[a];
             hi = u.hi[a];
         } else if (left) {
@@ -278,7 +401,10 @@ private:
     /// Box already tight: split at the middle of the centres' extent; Leaf if they coincide.
     Split centroid_split(std::size_t begin, std::size_t end, const Aabb& box) {
         Aabb c;
-        for (std::size_t i = begin; i < end; ++i) c.extend(p_.center[order_[i]]);
+        for (std::size_t i = begin; i < end; ++i) {
+            const Prim& p = p_[i];
+            c.extend(vec3(p.center(0), p.center(1), p.center(2)));
+        }
         Split s;
         s.axis = c.longest_axis();
         if (!(c.hi[s.axis] > c.lo[s.axis])) return s;
@@ -292,35 +418,77 @@ private:
         return s;
     }
 
-    /// In-place partition of order[begin, end) by centre <= cut along `axis`, computing the left
-    /// maximum and right minimum planes on the way; returns the first right position.
     std::size_t partition(std::size_t begin, std::size_t end, int axis, float cut, float& left_max,
                           float& right_min) {
-        left_max = -std::numeric_limits<float>::infinity();
-        right_min = std::numeric_limits<float>::infinity();
-        std::size_t i = begin, j = end;
-        while (i < j) {
-            std::uint32_t e = order_[i];
-            if (p_.center[e][axis] <= cut) {
-                left_max = std::max(left_max, p_.box[e].hi[axis]);
-                ++i;
-            } else {
-                right_min = std::min(right_min, p_.box[e].lo[axis]);
-                std::swap(order_[i], order_[--j]);
-            }
-        }
-        return i;
+        return begin + partition_in_place(p_ + begin, end - begin, axis, cut, side_ + begin, left_max, right_min);
     }
 
-    const Prims& p_;
+    Prim* p_;
     std::uint32_t* order_;
+    std::uint8_t* side_;  ///< scratch: the sides of a partition, one per element
     const Config& cfg_;
     X& exec_;
     std::atomic<std::size_t>& placed_;
     std::size_t total_;
 };
 
-/// Fills in the statistics of a finished tree.
+/// Sets the total size of every chunk and the final index of its first node (pre-order, each
+/// sub-chunk after the nodes its parent chunk had when it was attached); lists the chunks.
+inline std::size_t place_chunks(Chunk& c, std::size_t base, std::vector<Chunk*>& list) {
+    c.base = base;
+    list.push_back(&c);
+    c.total = c.nodes.size();
+    for (Chunk::Link& l : c.links) c.total += place_chunks(*l.sub, base + l.at + (c.total - c.nodes.size()), list);
+    return c.total;
+}
+
+/// Copies one chunk into the final array, turning local child indices into final ones and
+/// pointing the parents of sub-chunks at their roots.
+inline void copy_chunk(const Chunk& c, Node* out) {
+    const bool plain = c.links.empty() || c.links.front().at == c.nodes.size();  // sub-chunks only after
+    for (std::size_t i = 0; i < c.nodes.size(); ++i) {
+        Node n = c.nodes[i];
+        for (std::uint32_t& k : n.child)
+            if (k != kNoChild) k = static_cast<std::uint32_t>(plain ? c.base + k : c.final_index(k));
+        out[plain ? c.base + i : c.final_index(i)] = n;
+    }
+    for (const Chunk::Link& l : c.links) out[c.final_index(l.node)].child[l.slot] = static_cast<std::uint32_t>(l.sub->base);
+}
+
+/// The statistics of all chunks together.
+inline void collect_stats(const std::vector<Chunk*>& list, BuildStats& s) {
+    for (const Chunk* c : list) {
+        s.leaves += c->leaves;
+        s.single_child_nodes += c->single_child_nodes;
+        s.max_depth = std::max(s.max_depth, c->max_depth);
+        s.max_leaf_elements = std::max(s.max_leaf_elements, c->max_leaf_elements);
+    }
+}
+
+/// Joins the chunks into one pre-order node array (copied in parallel) and fills the stats.
+template <Executor X>
+void assemble(Chunk& root, Tree& t, X& exec) {
+    std::vector<Chunk*> list;
+    std::size_t total = place_chunks(root, 0, list);
+    if (total >= std::numeric_limits<std::uint32_t>::max())
+        throw Error("bih::build: " + std::to_string(total) + " nodes exceed 32-bit node indices");
+    collect_stats(list, t.stats);
+    t.stats.nodes = total;
+    if (list.size() == 1) {
+        t.nodes = std::move(root.nodes);
+        return;
+    }
+    t.nodes.resize(total);
+    Node* out = t.nodes.data();
+    exec.parallel_for(0, list.size(), 1, [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t k = lo; k < hi; ++k) {
+            copy_chunk(*list[k], out);
+            std::vector<Node>().swap(list[k]->nodes);  // lowers the peak memory
+        }
+    });
+}
+
+/// Fills in the statistics of a finished tree (any tree whose children follow their parents).
 inline void measure(Tree& t) {
     BuildStats& s = t.stats;
     s.nodes = t.nodes.size();
@@ -355,15 +523,18 @@ Tree build(std::span<const E> elements, const Config& config, X& exec) {
     cfg.max_leaf_elements = std::max<std::uint32_t>(cfg.max_leaf_elements, 1);
 
     Tree t;
-    detail::Prims prims = detail::gather_prims(elements, exec);
     t.order.resize(elements.size());
-    std::iota(t.order.begin(), t.order.end(), 0u);
-    t.bounds = detail::union_of(prims, t.order.data(), 0, t.order.size());
-    std::atomic<std::size_t> placed{0};
-    detail::SubtreeBuilder<X> builder(prims, t.order.data(), cfg, exec, placed, elements.size());
-    t.nodes = builder.build(0, elements.size(), t.bounds, 0);
+    detail::Chunk root;
+    {
+        auto prims = std::make_unique_for_overwrite<detail::Prim[]>(elements.size());
+        auto side = std::make_unique_for_overwrite<std::uint8_t[]>(elements.size());
+        t.bounds = detail::gather_prims(elements, prims.get(), exec);
+        std::atomic<std::size_t> placed{0};
+        detail::SubtreeBuilder<X> builder(prims.get(), t.order.data(), side.get(), cfg, exec, placed, elements.size());
+        builder.build(root, 0, elements.size(), t.bounds, 0);
+    }
+    detail::assemble(root, t, exec);
     t.stats.elements = elements.size();
-    detail::measure(t);
     t.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return t;
 }
