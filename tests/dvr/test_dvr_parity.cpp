@@ -105,6 +105,21 @@ TEST_CASE("Volume renderers on Vulkan match the host", "[parity][vulkan]") {
                              vk::render_bih_dvr_vulkan(ctx, dbih, p)});
         }
     }
+    // The default split (everything in part 0: the shaders' fast path without part selection).
+    vk::DeviceGrid dgrid1(ctx, gw);
+    vk::DeviceVoxelBih dbih1(ctx, view);
+    REQUIRE(dgrid1.constants()[1] == 1u);
+    REQUIRE(dbih1.constants()[3] == 1u);
+    VolumeRenderParams p;
+    p.camera = Camera::framing(grid.world_box()).frame(64, 64);
+    p.width = p.height = 64;
+    p.tf = smooth_tf(0.08f, 0.3f);
+    cases.push_back({"marcher, one part", render_dvr_cpu(gw, p, pool), vk::render_dvr_vulkan(ctx, dgrid1, p)});
+    p.mode = VolumeMode::BihMulti;
+    cases.push_back({"multi, one part", render_bih_dvr_cpu(view, p, pool), vk::render_bih_dvr_vulkan(ctx, dbih1, p)});
+    p.mode = VolumeMode::BihIso;
+    p.iso_culling = true;
+    cases.push_back({"iso culled, one part", render_bih_dvr_cpu(view, p, pool), vk::render_bih_dvr_vulkan(ctx, dbih1, p)});
     for (const Case& c : cases) check_pair(c);
 }
 
