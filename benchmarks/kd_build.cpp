@@ -9,8 +9,8 @@
 // to 8^3) and thread count (1, 2): the % of empty space culled, leaves, nodes, depth, and the
 // construction time split into the occupancy phase (SVT / partial SVTs / local boxes, each
 // classifying the volume on the fly) and the splitting phase, also as a ratio to one streaming
-// pass over the volume (read + classify, counting occupied voxels) timed in the same run. Times
-// are the fastest of --runs runs after a warm-up; full and partial SVTs are rebuilt into storage
+// pass over the volume (read + classify, counting occupied voxels) timed in the same run, just
+// before every timed build. Times are the fastest of --runs runs after a warm-up; full and partial SVTs are rebuilt into storage
 // allocated once, as for a transfer-function change (Zellmann section 4.1). Zellmann et al.'s Table 1 CPU rows (16 threads, Xeon Gold
 // 5122) are printed beside the data sets it has.
 #include <algorithm>
@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -90,26 +91,29 @@ Options parse(int argc, char** argv) {
     return o;
 }
 
-/// The fastest of `runs` streaming passes (read + classify + count) over `src`.
-template <volume::OccupancySource S, Executor X>
-double stream_pass(const S& src, X& exec, int runs, std::uint64_t& occupied) {
+/// The yardstick: one streaming pass (read + classify + count) over the source, sampled before
+/// every timed build so that load from elsewhere hits it as it hits the builds; best = fastest.
+struct StreamPass {
+    std::function<std::uint64_t()> pass;
     double best = 1e30;
-    for (int r = 0; r < runs; ++r) {
+    std::uint64_t occupied = 0;
+    void sample() {
         double t0 = now_ms();
-        occupied = volume::count_occupied(src, exec);
+        occupied = pass();
         best = std::min(best, now_ms() - t0);
     }
-    return best;
-}
+};
 
 /// The fastest of `runs` builds (by total time), after one untimed warm-up build; `build`
 /// returns a Tree with timed phases.
 template <class F>
-Row time_build(const std::string& builder, const std::string& tree, int threads, int runs, F&& build) {
+Row time_build(const std::string& builder, const std::string& tree, int threads, int runs, StreamPass& stream,
+               F&& build) {
     build();
     Row best;
     best.occupancy_ms = best.split_ms = 1e30;
     for (int r = 0; r < runs; ++r) {
+        stream.sample();
         kdtree::Tree t = build();
         if (t.stats.occupancy_ms + t.stats.split_ms >= best.total_ms()) continue;
         best = Row{builder, tree, threads, t.stats.occupancy_ms, t.stats.split_ms, 0.0, t.stats.percent_culled(),
@@ -130,24 +134,27 @@ kdtree::Tree rebuild(Table& table, Assign&& assign, Build&& build) {
     return t;
 }
 
-/// Every builder and tree kind on `threads` threads of `exec`.
+/// Every builder and tree kind on `threads` threads of `exec`; the rows' stream_ms is the
+/// fastest streaming pass on the same threads, sampled between the builds.
 template <volume::OccupancySource S, Executor X>
-void run_builders(const S& src, X& exec, int threads, int runs, double stream_ms, std::vector<Row>& rows) {
+double run_builders(const S& src, X& exec, int threads, int runs, std::vector<Row>& rows) {
+    StreamPass stream{[&] { return volume::count_occupied(src, exec); }};
     volume::SummedVolumeTable<std::uint32_t> svt;  // 256^3 fits 32-bit entries
     volume::PartialSvt<32> psvt;
+    std::size_t first = rows.size();
     for (auto [tree, cfg] : {std::pair{"shallow", kdtree::Config::shallow()}, std::pair{"deep", kdtree::Config::deep()}}) {
         if (threads == 1)  // the serial builder ignores the executor
-            rows.push_back(time_build("vidal-svt", tree, 1, runs, [&] {
+            rows.push_back(time_build("vidal-svt", tree, 1, runs, stream, [&] {
                 return rebuild(svt, [&](auto& t) { t.assign(src); }, [&](auto& t) { return kdtree::build(t, cfg); });
             }));
-        rows.push_back(time_build("zellmann-psvt32", tree, threads, runs, [&] {
+        rows.push_back(time_build("zellmann-psvt32", tree, threads, runs, stream, [&] {
             return rebuild(psvt, [&](auto& t) { t.assign(src, exec); }, [&](auto& t) { return kdtree::build(t, cfg, exec); });
         }));
-        rows.push_back(time_build("binned-8^3-4bins", tree, threads, runs,
+        rows.push_back(time_build("binned-8^3-4bins", tree, threads, runs, stream,
                                   [&] { return kdtree::build_binned(src, cfg, exec); }));
     }
-    for (Row& r : rows)
-        if (r.threads == threads && r.stream_ms == 0.0) r.stream_ms = stream_ms;
+    for (std::size_t i = first; i < rows.size(); ++i) rows[i].stream_ms = stream.best;
+    return stream.best;
 }
 
 void print_rows(const std::vector<Row>& rows) {
@@ -165,15 +172,13 @@ std::vector<Row> run_case(const Case& c, const S& src, const Options& o, std::ui
     std::vector<Row> rows;
     SerialExecutor serial;
     ThreadPool pool(2);
-    std::uint64_t occupied = 0;
-    double s1 = stream_pass(src, serial, o.runs, occupied);
-    double s2 = stream_pass(src, pool, o.runs, occupied);
+    std::uint64_t occupied = volume::count_occupied(src, serial);
+    double s1 = run_builders(src, serial, 1, o.runs, rows);
+    double s2 = run_builders(src, pool, 2, o.runs, rows);
     std::printf("\n%s %ux%ux%u, threshold %.2f: occupancy %.3f %% (%llu voxels); streaming pass %.2f ms (1 thread), "
                 "%.2f ms (2 threads)\n",
                 c.name.c_str(), src.dims.x, src.dims.y, src.dims.z, c.threshold, 100.0 * double(occupied) / double(voxels),
                 static_cast<unsigned long long>(occupied), s1, s2);
-    run_builders(src, serial, 1, o.runs, s1, rows);
-    run_builders(src, pool, 2, o.runs, s2, rows);
     print_rows(rows);
     if (c.paper) std::printf("  Zellmann Table 1 (CPU, 16 threads): %s\n", c.paper);
     return rows;

@@ -149,6 +149,32 @@ inline Interval slab(const Ray& r, const VoxelBox& b, Interval range) {
     return range;
 }
 
+inline float signed_zero(std::mt19937& rng) { return (rng() & 1u) ? 0.0f : -0.0f; }
+
+/// Rays of every kind: random directions, one or two +-0 components (axis-parallel), origins
+/// inside and outside the grid. `in_plane` puts the origin on integer planes of the parallel
+/// axes (rays lying in split planes); otherwise origins are never integers there.
+inline std::vector<Ray> make_rays(volume::Dims d, std::size_t n, std::uint32_t seed, bool in_plane) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-0.3f, 1.3f), dir(-1.0f, 1.0f);
+    std::vector<Ray> rays(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        Ray& r = rays[i];
+        r.origin = vec3(u(rng) * d.x, u(rng) * d.y, u(rng) * d.z);
+        r.direction = vec3(dir(rng), dir(rng), dir(rng));
+        int kind = static_cast<int>(i % 4);
+        for (int a = 0; a < 3; ++a) {
+            bool zero = (kind == 1 && a == int(i % 3)) || (kind == 2 && a != int(i % 3)) || (kind == 3 && a == 2);
+            if (!zero) continue;
+            r.direction[a] = signed_zero(rng);
+            float o = std::floor(u(rng) * d[a]);
+            r.origin[a] = in_plane ? o : o + 0.375f;
+        }
+        if (glm::all(glm::equal(r.direction, vec3(0.0f)))) r.direction.x = 1.0f;
+    }
+    return rays;
+}
+
 /// Path of a data file, or "" after a WARN when missing and SYLVA_ALLOW_MISSING_DATA=1;
 /// otherwise a missing file FAILs naming the path.
 inline std::string data_file(const std::string& name) {

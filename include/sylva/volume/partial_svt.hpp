@@ -56,7 +56,7 @@ public:
         sums_.resize(n * block_voxels);
         std::size_t block_rows = std::size_t{blocks_.y} * blocks_.z;
         exec.parallel_for(0, block_rows, 1, [&](std::size_t lo, std::size_t hi) {
-            std::vector<std::uint8_t> row(dims_.x), v1(blocks_.x * block_voxels);
+            std::vector<std::uint8_t> row(dims_.x), v1(std::size_t{blocks_.x} * B * std::min(B, dims_.y) * std::min(B, dims_.z));
             for (std::size_t r = lo; r < hi; ++r) build_block_row(src, r, row.data(), v1.data());
         });
     }
@@ -159,30 +159,32 @@ private:
     }
 
     /// Builds the row of blocks r (r = by + blocks.y * bz): classifies whole grid rows (one
-    /// streaming read), scatters them into the blocks' occupancy `v1` (B^3 bytes a block, x
-    /// fastest with stride B), then counts and sums each block.
+    /// streaming read), scatters them into the blocks' occupancy `v1` (per block, x fastest
+    /// with stride B, then y and z over the row's extents), then counts and sums each block.
     template <OccupancySource S>
     void build_block_row(const S& src, std::size_t r, std::uint8_t* row, std::uint8_t* v1) {
         std::size_t first = block_index(uvec3(0u, static_cast<std::uint32_t>(r % blocks_.y),
                                               static_cast<std::uint32_t>(r / blocks_.y)));
         VoxelBox bb = block_box(first);
-        for (std::uint32_t z = 0; z < bb.hi.z - bb.lo.z; ++z)
-            for (std::uint32_t y = 0; y < bb.hi.y - bb.lo.y; ++y) {
+        uvec3 e = bb.hi - bb.lo;
+        std::size_t stride = std::size_t{B} * e.y * e.z;  // bytes of one block in v1
+        for (std::uint32_t z = 0; z < e.z; ++z)
+            for (std::uint32_t y = 0; y < e.y; ++y) {
                 src.row(0, dims_.x, bb.lo.y + y, bb.lo.z + z, row);
                 for (std::uint32_t bx = 0; bx < blocks_.x; ++bx)
-                    std::memcpy(v1 + bx * block_voxels + B * (y + B * z), row + bx * B, std::min(B, dims_.x - bx * B));
+                    std::memcpy(v1 + bx * stride + B * (y + e.y * z), row + bx * B, std::min(B, dims_.x - bx * B));
             }
-        for (std::uint32_t bx = 0; bx < blocks_.x; ++bx) sum_block(first + bx, v1 + bx * block_voxels);
+        for (std::uint32_t bx = 0; bx < blocks_.x; ++bx) sum_block(first + bx, v1 + bx * stride);
     }
 
-    /// Counts block b from its occupancy `v1` and, unless it is empty, sums it into the block's
-    /// table (eq. 5 in the running-row form of svt.hpp).
+    /// Counts block b from its occupancy `v1` (layout of build_block_row) and, unless it is
+    /// empty, sums it into the block's table (eq. 5 in the running-row form of svt.hpp).
     void sum_block(std::size_t b, const std::uint8_t* v1) {
         VoxelBox bb = block_box(b);
         uvec3 e = bb.hi - bb.lo;
         std::uint32_t total = 0;
         for (std::uint32_t z = 0; z < e.z; ++z)
-            for (std::uint32_t y = 0; y < e.y; ++y) total += detail::count_ones(v1 + B * (y + B * z), e.x);
+            for (std::uint32_t y = 0; y < e.y; ++y) total += detail::count_ones(v1 + B * (y + e.y * z), e.x);
         totals_[b] = total;
         if (total == 0) return;
         std::uint16_t* t = sums_.data() + b * block_voxels;
@@ -193,7 +195,7 @@ private:
                 const std::uint16_t* below = y ? out - B : zeros;
                 const std::uint16_t* back = z ? out - B * B : zeros;
                 const std::uint16_t* back_below = (y && z) ? out - B * B - B : zeros;
-                const std::uint8_t* in = v1 + B * (y + B * z);
+                const std::uint8_t* in = v1 + B * (y + e.y * z);
                 std::uint16_t run = 0;
                 for (std::uint32_t x = 0; x < e.x; ++x) {
                     run = static_cast<std::uint16_t>(run + in[x]);
