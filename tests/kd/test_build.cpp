@@ -300,3 +300,14 @@ TEST_CASE("subvolumes: the budget is shared in proportion to the leaves below", 
     CHECK(kdtree::subvolume_nodes(t, 3) == std::vector<std::uint32_t>{3, 4, 2});  // A gets ceil(9/4) = 3 -> 2
     CHECK(kdtree::subvolume_nodes(t, 4) == std::vector<std::uint32_t>{5, 6, 4, 2});
 }
+
+namespace {
+struct NotASplitter {
+    VoxelBox root_box() const { return {}; }
+};
+static_assert(kdtree::Splitter<kdtree::SvtSplitter<std::uint32_t>>);
+static_assert(kdtree::Splitter<kdtree::PartialSvtSplitter<32, ThreadPool>>);
+static_assert(kdtree::Splitter<kdtree::BinnedSplitter<SerialExecutor>>);
+static_assert(!kdtree::Splitter<NotASplitter>);
+static_assert(!kdtree::Splitter<int>);
+}  // namespace

@@ -260,3 +260,34 @@ TEST_CASE("occupancy: dilation grows by the radius along every axis", "[occupanc
         }
     }
 }
+
+// Compile-time checks of the plug-in points: occupancy sources and builder splitters.
+namespace {
+struct NoRow {
+    volume::Dims dims{1};
+    vec3 spacing{1.0f};
+};
+struct UserSource {  // a user's own source: every voxel on the diagonal x == y == z
+    volume::Dims dims{4};
+    vec3 spacing{1.0f};
+    void row(std::uint32_t x0, std::uint32_t x1, std::uint32_t y, std::uint32_t z, std::uint8_t* out) const {
+        for (std::uint32_t x = x0; x < x1; ++x) out[x - x0] = (x == y && y == z) ? 1u : 0u;
+    }
+};
+static_assert(volume::OccupancySource<Occupancy>);
+static_assert(volume::OccupancySource<volume::ClassifiedVolume<volume::DensityThreshold>>);
+static_assert(volume::OccupancySource<volume::ClassifiedGrid<volume::TransferFunctionAlpha>>);
+static_assert(volume::OccupancySource<UserSource>);
+static_assert(!volume::OccupancySource<NoRow>);
+static_assert(!volume::OccupancySource<volume::DensityGrid>);
+static_assert(!volume::OccupancySource<int>);
+}  // namespace
+
+TEST_CASE("occupancy: a user's own source feeds every table", "[occupancy]") {
+    SerialExecutor serial;
+    UserSource u;
+    CHECK(volume::SummedVolumeTable<std::uint32_t>(u).total() == 4u);
+    CHECK(volume::PartialSvt<3>(u, serial).tight_box(volume::full_box(u.dims)) == volume::full_box(u.dims));
+    CHECK(volume::classify(u, serial).at(2, 2, 2));
+    CHECK_FALSE(volume::classify(u, serial).at(2, 1, 2));
+}
