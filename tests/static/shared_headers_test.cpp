@@ -12,3 +12,4 @@
 #include <sylva/shared/bih_dvr.h>
 #include <sylva/shared/kd_layout.h>
 #include <sylva/shared/kd_iter.h>
+#include <sylva/shared/kd_local_boxes.h>

@@ -1,0 +1,342 @@
+// sylva/kdtree/gpu_local_boxes.hpp -- the local-AABB pass of Zellmann et al.'s GPU builder
+// (section 4.3) in the layout of the compute shader: one word per 8^3 block (dense, blocks x
+// fastest; layout in sylva/shared/kd_local_boxes.h), then a gather along the z-order Morton
+// curve into the LocalBoxes the binned builder reads (sylva/kdtree/local_boxes.hpp).
+//
+//  * BlockOrder          every block of a grid in ascending Morton order. It depends only on
+//                        the dimensions, so a rebuild after a transfer-function change reuses it
+//                        and gathers the non-empty blocks already sorted (no sort per build;
+//                        the paper sorts the boxes after every pass).
+//  * block_words         the pass on the host from any OccupancySource (rows of blocks in
+//                        parallel; the fast host path of kdtree/rebuild.hpp).
+//  * BoxSource,          what the device pass reads: the raw voxels (uint8, uint16, float32,
+//    BoxClassifier       or a materialised occupancy) and the classification (a per-value bit
+//                        table for integer voxels, any VoxelClassifier; a threshold or the
+//                        transfer function's float alpha entries for float voxels).
+//  * reference_block_words  the shared code of shaders/kd_local_boxes.comp run on the host.
+//  * gather_local_boxes  block words -> LocalBoxes, reusing the output's storage.
+#ifndef SYLVA_KDTREE_GPU_LOCAL_BOXES_HPP
+#define SYLVA_KDTREE_GPU_LOCAL_BOXES_HPP
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "sylva/core/concepts.hpp"
+#include "sylva/core/error.hpp"
+#include "sylva/kdtree/local_boxes.hpp"
+#include "sylva/shared/kd_local_boxes.h"
+#include "sylva/volume/classify.hpp"
+#include "sylva/volume/grid.hpp"
+#include "sylva/volume/occupancy.hpp"
+
+namespace sylva::kdtree {
+
+/// Blocks along each axis of a grid of `dims` voxels (8^3 blocks, edge blocks clipped).
+inline uvec3 block_counts(volume::Dims dims) { return (uvec3(dims) + 7u) / 8u; }
+
+/// The box of block `block` encoded in block word `w` (empty for an empty block).
+inline VoxelBox block_word_box(uvec3 block, std::uint32_t w) {
+    if (shared::sylva_kd_box_word_count(w) == 0u) return VoxelBox{};
+    uvec3 base = block * 8u;
+    return VoxelBox{base + shared::sylva_kd_box_word_lo(w), base + shared::sylva_kd_box_word_last(w) + 1u};
+}
+
+/// Every block of a grid, ascending along the z-order Morton curve of the block coordinates.
+struct BlockOrder {
+    volume::Dims dims{0};
+    uvec3 blocks{0u};
+    std::vector<std::uint32_t> index;  ///< linear block index (x fastest), ascending code
+    std::vector<std::uint64_t> code;   ///< its Morton code (morton3)
+
+    /// The order of a grid of `dims`; throws sylva::Error for bad dimensions, more than 2^21
+    /// blocks along an axis (the 64-bit Morton code) or 2^32 blocks in all.
+    static BlockOrder of(volume::Dims dims) {
+        volume::voxel_count(dims);
+        BlockOrder o;
+        o.dims = dims;
+        o.blocks = block_counts(dims);
+        if (std::max({o.blocks.x, o.blocks.y, o.blocks.z}) > (1u << 21))
+            throw Error("kdtree: more than 2^21 blocks along an axis overflow the 64-bit Morton code");
+        std::uint64_t n = std::uint64_t{o.blocks.x} * o.blocks.y * o.blocks.z;
+        if (n > 0xFFFFFFFFull) throw Error("kdtree: " + std::to_string(n) + " blocks overflow 32-bit block indices");
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> pairs(static_cast<std::size_t>(n));
+        for (std::uint32_t i = 0; i < n; ++i) {
+            uvec3 c(i % o.blocks.x, (i / o.blocks.x) % o.blocks.y, i / (o.blocks.x * o.blocks.y));
+            pairs[i] = {morton3(c), i};
+        }
+        std::sort(pairs.begin(), pairs.end());
+        o.index.resize(pairs.size());
+        o.code.resize(pairs.size());
+        for (std::size_t k = 0; k < pairs.size(); ++k) o.code[k] = pairs[k].first, o.index[k] = pairs[k].second;
+        return o;
+    }
+    [[nodiscard]] std::size_t size() const { return index.size(); }
+    /// Block coordinates of linear block index i.
+    [[nodiscard]] uvec3 coord(std::uint32_t i) const {
+        return uvec3(i % blocks.x, (i / blocks.x) % blocks.y, i / (blocks.x * blocks.y));
+    }
+};
+
+/// Turns dense block words into Morton-sorted local boxes, reusing `out`'s storage: the same
+/// LocalBoxes kdtree::local_boxes computes. Throws sylva::Error when the word count does not
+/// match the order, or naming the first block (in Morton order) flagged with a bad value.
+inline void gather_local_boxes(std::span<const std::uint32_t> words, const BlockOrder& order, vec3 spacing,
+                               LocalBoxes& out) {
+    if (words.size() != order.size())
+        throw Error("kdtree: " + std::to_string(words.size()) + " block words for " + std::to_string(order.size()) +
+                    " blocks");
+    out.dims = order.dims;
+    out.spacing = spacing;
+    out.blocks = order.blocks;
+    out.occupied = 0;
+    out.codes.clear();
+    out.boxes.clear();
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        std::uint32_t w = words[order.index[k]];
+        if (w == 0u) continue;
+        uvec3 b = order.coord(order.index[k]);
+        if (w & SYLVA_KD_BOX_BAD)
+            throw Error("kdtree: block (" + std::to_string(b.x) + ", " + std::to_string(b.y) + ", " + std::to_string(b.z) +
+                        ") holds a voxel that is not a finite number");
+        out.occupied += shared::sylva_kd_box_word_count(w);
+        out.codes.push_back(order.code[k]);
+        out.boxes.push_back(block_word_box(b, w));
+    }
+}
+
+namespace detail {
+
+/// Masks and count of one block while its rows stream by.
+struct BlockAccumulator {
+    std::uint32_t x = 0, y = 0, z = 0, count = 0;
+};
+
+/// Words of the row of blocks (by, bz): streams its grid rows from `src` (one read each).
+template <volume::OccupancySource S>
+void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, std::vector<std::uint8_t>& row,
+                     std::vector<BlockAccumulator>& acc, std::uint32_t* words) {
+    volume::Dims d = src.dims;
+    std::fill(acc.begin(), acc.end(), BlockAccumulator{});
+    for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
+        for (std::uint32_t y = by * 8u; y < std::min(d.y, by * 8u + 8u); ++y) {
+            src.row(0, d.x, y, z, row.data());
+            for (std::uint32_t bx = 0; bx < nb.x; ++bx) {
+                std::uint32_t m = row_mask(row.data() + bx * 8u, std::min(8u, d.x - bx * 8u));
+                if (!m) continue;
+                acc[bx].x |= m;
+                acc[bx].y |= 1u << (y & 7u);
+                acc[bx].z |= 1u << (z & 7u);
+                acc[bx].count += static_cast<std::uint32_t>(std::popcount(m));
+            }
+        }
+    std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
+    for (std::uint32_t bx = 0; bx < nb.x; ++bx)
+        words[first + bx] = shared::sylva_kd_box_word(acc[bx].x, acc[bx].y, acc[bx].z, acc[bx].count, false);
+}
+
+}  // namespace detail
+
+/// The pass on the host: one word per block of `src` into `words` (resized, storage reused),
+/// rows of blocks in parallel on `exec`. Errors of the source (bad values) propagate.
+template <volume::OccupancySource S, Executor X>
+void block_words(const S& src, X& exec, std::vector<std::uint32_t>& words) {
+    volume::voxel_count(src.dims);
+    uvec3 nb = block_counts(src.dims);
+    words.resize(std::size_t{nb.x} * nb.y * nb.z);
+    exec.parallel_for(0, std::size_t{nb.y} * nb.z, 1, [&](std::size_t lo, std::size_t hi) {
+        std::vector<std::uint8_t> row(src.dims.x);
+        std::vector<detail::BlockAccumulator> acc(nb.x);
+        for (std::size_t r = lo; r < hi; ++r)
+            detail::block_row_words(src, nb, static_cast<std::uint32_t>(r % nb.y), static_cast<std::uint32_t>(r / nb.y),
+                                    row, acc, words.data());
+    });
+}
+
+/// The raw voxels the device pass reads (non-owning: the data must outlive it).
+struct BoxSource {
+    std::uint32_t source = SYLVA_KD_BOX_SOURCE_U8;  ///< SYLVA_KD_BOX_SOURCE_*: the packing
+    volume::Dims dims{0};
+    vec3 spacing{1.0f};
+    std::span<const std::byte> bytes;  ///< voxels, x fastest, little endian
+    float range_lo = 0.0f;             ///< volumes: the raw value that maps to density 0
+    float range_inv = 0.0f;            ///< volumes: 1 / (range_hi - range_lo), 0 for an empty range
+    bool normalise = true;             ///< false for density grids (values used as they are)
+    bool occupancy = false;            ///< bytes are a materialised occupancy (0 / 1)
+
+    /// Bytes per voxel.
+    [[nodiscard]] std::size_t voxel_bytes() const {
+        return source == SYLVA_KD_BOX_SOURCE_U8 ? 1u : (source == SYLVA_KD_BOX_SOURCE_U16 ? 2u : 4u);
+    }
+    /// Bytes of one z-slice.
+    [[nodiscard]] std::size_t slice_bytes() const { return std::size_t{dims.x} * dims.y * voxel_bytes(); }
+
+    /// A volume's voxels (any scalar type). Throws when its byte count does not match.
+    static BoxSource of(const volume::Volume& v) {
+        std::size_t n = volume::voxel_count(v.dims, volume::scalar_bytes(v.type));
+        if (v.bytes.size() != n * volume::scalar_bytes(v.type))
+            throw Error("kdtree: " + std::to_string(v.bytes.size()) + " bytes do not match " + std::to_string(n) + " " +
+                        volume::scalar_name(v.type) + " voxels");
+        BoxSource s;
+        s.source = v.type == volume::ScalarType::U8    ? SYLVA_KD_BOX_SOURCE_U8
+                   : v.type == volume::ScalarType::U16 ? SYLVA_KD_BOX_SOURCE_U16
+                                                       : SYLVA_KD_BOX_SOURCE_F32;
+        s.dims = v.dims;
+        s.spacing = v.spacing;
+        s.bytes = std::span<const std::byte>(v.bytes);
+        s.range_lo = v.range_lo;
+        s.range_inv = volume::detail::inverse_span(v);
+        return s;
+    }
+    /// A normalised density grid (float32, values classified as they are).
+    static BoxSource of(const volume::DensityGrid& g) {
+        if (g.values.size() != volume::voxel_count(g.dims))
+            throw Error("kdtree: " + std::to_string(g.values.size()) + " densities do not match the grid's dimensions");
+        BoxSource s;
+        s.source = SYLVA_KD_BOX_SOURCE_F32;
+        s.dims = g.dims;
+        s.spacing = g.spacing;
+        s.bytes = std::as_bytes(std::span<const float>(g.values));
+        s.normalise = false;
+        return s;
+    }
+    /// A materialised occupancy (its bytes are the voxels; a non-zero byte is occupied).
+    static BoxSource of(const volume::Occupancy& o) {
+        if (o.voxels.size() != volume::voxel_count(o.dims))
+            throw Error("kdtree: " + std::to_string(o.voxels.size()) + " occupancy bytes do not match the dimensions");
+        BoxSource s;
+        s.dims = o.dims;
+        s.spacing = o.spacing;
+        s.bytes = std::as_bytes(std::span<const std::uint8_t>(o.voxels));
+        s.occupancy = true;
+        return s;
+    }
+};
+
+/// How the device pass classifies (layout of the buffers in sylva/shared/kd_local_boxes.h).
+struct BoxClassifier {
+    std::uint32_t classify = SYLVA_KD_BOX_CLASSIFY_LUT;  ///< SYLVA_KD_BOX_CLASSIFY_*
+    float cut = 0.0f;                   ///< threshold or min_alpha
+    std::vector<std::uint32_t> lut;     ///< integer voxels: one bit per raw value
+    std::vector<std::uint32_t> alphas;  ///< ALPHA: float bits of the transfer function's alpha entries
+};
+
+namespace detail {
+
+/// Packs one byte (0 / 1) per value into one bit per value, reusing `bits`.
+inline void pack_bits(const std::vector<std::uint8_t>& bytes, std::vector<std::uint32_t>& bits) {
+    bits.assign((bytes.size() + 31) / 32, 0u);
+    for (std::size_t v = 0; v < bytes.size(); ++v)
+        if (bytes[v]) bits[v >> 5] |= 1u << (v & 31u);
+}
+
+inline std::uint32_t bits_of(float f) { return std::bit_cast<std::uint32_t>(f); }
+
+}  // namespace detail
+
+/// The classifier's verdict on every raw value of an integer source, one byte (0 / 1) each,
+/// into `table` (storage reused): the table volume::ClassifiedVolume builds (occupancy: value
+/// != 0). Throws sylva::Error for a float32 source.
+template <volume::VoxelClassifier C>
+void value_table(const BoxSource& s, const C& classify, std::vector<std::uint8_t>& table) {
+    if (s.source == SYLVA_KD_BOX_SOURCE_F32) throw Error("kdtree: float32 voxels have no per-value table");
+    table.resize(s.source == SYLVA_KD_BOX_SOURCE_U8 ? 256u : 65536u);
+    for (std::size_t i = 0; i < table.size(); ++i)
+        table[i] = s.occupancy ? (i != 0) : (classify(volume::detail::normalised(static_cast<float>(i), s.range_lo, s.range_inv)) ? 1u : 0u);
+}
+
+/// The device classification of `classify` over `s`, into `out` (storage reused). Integer
+/// voxels take any classifier (through the per-value table); float32 voxels only
+/// volume::DensityThreshold and volume::TransferFunctionAlpha, which the shader evaluates
+/// itself (sylva::Error otherwise).
+template <volume::VoxelClassifier C>
+void assign_box_classifier(const BoxSource& s, const C& classify, BoxClassifier& out) {
+    out.alphas.clear();
+    if (s.source != SYLVA_KD_BOX_SOURCE_F32) {
+        std::vector<std::uint8_t> table;
+        value_table(s, classify, table);
+        out.classify = SYLVA_KD_BOX_CLASSIFY_LUT;
+        out.cut = 0.0f;
+        detail::pack_bits(table, out.lut);
+        return;
+    }
+    out.lut.clear();
+    if constexpr (std::is_same_v<C, volume::DensityThreshold>) {
+        out.classify = SYLVA_KD_BOX_CLASSIFY_THRESHOLD;
+        out.cut = classify.min_density;
+    } else if constexpr (std::is_same_v<C, volume::TransferFunctionAlpha>) {
+        out.classify = SYLVA_KD_BOX_CLASSIFY_ALPHA;
+        out.cut = classify.min_alpha();
+        for (const vec4& e : classify.transfer_function().entries()) out.alphas.push_back(detail::bits_of(e.a));
+    } else {
+        throw Error("kdtree: float32 voxels are classified on the device only by DensityThreshold or "
+                    "TransferFunctionAlpha");
+    }
+}
+
+/// The same, returned.
+template <volume::VoxelClassifier C>
+BoxClassifier box_classifier(const BoxSource& s, const C& classify) {
+    BoxClassifier c;
+    assign_box_classifier(s, classify, c);
+    return c;
+}
+
+/// The parameter block of the pass (layout in sylva/shared/kd_local_boxes.h).
+inline std::array<std::uint32_t, SYLVA_KD_BOX_PARAM_WORDS> box_params(const BoxSource& s, const BoxClassifier& c) {
+    return {s.dims.x, s.dims.y, s.dims.z, s.source, c.classify, detail::bits_of(c.cut), detail::bits_of(s.range_lo),
+            detail::bits_of(s.range_inv), s.normalise ? 1u : 0u, static_cast<std::uint32_t>(c.alphas.size())};
+}
+
+/// Block layers (8 z-slices each) per slab so that a slab's voxels fit `max_bytes` (and 32-bit
+/// voxel indices); throws sylva::Error when one layer does not.
+inline std::uint32_t slab_layers(const BoxSource& s, std::size_t max_bytes) {
+    std::size_t layer = s.slice_bytes() * 8u, cap = std::min<std::size_t>(max_bytes, 0xFFFFFFFCull);
+    std::uint32_t layers = block_counts(s.dims).z;
+    if (std::size_t{s.dims.z} * s.slice_bytes() <= cap) return layers;
+    if (layer > cap)
+        throw Error("kdtree: one layer of 8^3 blocks holds " + std::to_string(layer) + " bytes, more than a slab's " +
+                    std::to_string(cap));
+    return static_cast<std::uint32_t>(cap / layer);
+}
+
+/// The voxels of slices [z0, z1) as words (zero-padded to whole words).
+inline std::vector<std::uint32_t> slab_words(const BoxSource& s, std::uint32_t z0, std::uint32_t z1) {
+    std::size_t first = std::size_t{z0} * s.slice_bytes(), bytes = std::size_t{z1 - z0} * s.slice_bytes();
+    std::vector<std::uint32_t> w((bytes + 3) / 4, 0u);
+    std::memcpy(w.data(), s.bytes.data() + first, bytes);
+    return w;
+}
+
+/// The shared code of shaders/kd_local_boxes.comp run on the host, one slab of `layers` block
+/// layers at a time: the words the device must produce.
+inline std::vector<std::uint32_t> reference_block_words(const BoxSource& s, const BoxClassifier& c,
+                                                        std::uint32_t layers = 1) {
+    uvec3 nb = block_counts(s.dims);
+    std::vector<std::uint32_t> words(std::size_t{nb.x} * nb.y * nb.z);
+    std::array<std::uint32_t, SYLVA_KD_BOX_PARAM_WORDS> params = box_params(s, c);
+    shared::Words pw{params.data(), params.size()}, lut{c.lut.data(), c.lut.size()}, alphas{c.alphas.data(), c.alphas.size()};
+    for (std::uint32_t bz0 = 0; bz0 < nb.z; bz0 += layers) {
+        std::uint32_t bz1 = std::min(nb.z, bz0 + layers);
+        std::vector<std::uint32_t> slab = slab_words(s, bz0 * 8u, std::min(s.dims.z, bz1 * 8u));
+        shared::Words voxels{slab.data(), slab.size()};
+        shared::SylvaKdBoxParams p = shared::sylva_kd_box_params(pw, bz0 * 8u);
+        for (std::uint32_t bz = bz0; bz < bz1; ++bz)
+            for (std::uint32_t by = 0; by < nb.y; ++by)
+                for (std::uint32_t bx = 0; bx < nb.x; ++bx)
+                    words[bx + std::size_t{nb.x} * (by + std::size_t{nb.y} * bz)] =
+                        shared::sylva_kd_box_block(voxels, lut, alphas, p, uvec3(bx, by, bz));
+    }
+    return words;
+}
+
+}  // namespace sylva::kdtree
+
+#endif  // SYLVA_KDTREE_GPU_LOCAL_BOXES_HPP

@@ -1,0 +1,177 @@
+// sylva/shared/kd_local_boxes.h -- the local-AABB pass of Zellmann et al.'s GPU kd-tree builder
+// (section 4.3): per 8^3 block of a classified volume, the tight box of its occupied voxels.
+// The same text runs on the host (sylva/kdtree/gpu_local_boxes.hpp, the reference) and in
+// shaders/kd_local_boxes.comp (sylva/vulkan/kd_build.hpp), so both give identical words.
+//
+// The paper fits each block's box by binary search in an 8^3 partial SVT held in shared
+// memory; here one invocation reads its block row by row and OR-reduces three 8-bit masks (the
+// x bits of every row, one y and one z bit per row holding an occupied voxel): the lowest and
+// highest set bits of each mask are the box, exactly the paper's box, without the table.
+//
+// Buffers (32-bit words; GLSL picks them by parameter NAME, see lang.h):
+//   voxels  the voxels of a slab of whole z-slices [slab_z0, ...), x fastest, packed:
+//           uint8 four a word (voxel i in bits 8 (i & 3) ..), uint16 two a word (bits
+//           16 (i & 1) ..), float32 one a word (float bits). Voxel indices count from the slab's
+//           first voxel and stay below 2^32 (the host cuts slabs to make sure).
+//   lut     SYLVA_KD_BOX_CLASSIFY_LUT: bit v (word v >> 5, bit v & 31) set when raw value v is
+//           occupied (8 words for uint8, 2048 for uint16)
+//   alphas  SYLVA_KD_BOX_CLASSIFY_ALPHA: the transfer function's alpha entries as float bits
+//           (TransferFunction::entries()[i].a, not the 8-bit GPU table: the host classifier
+//           TransferFunctionAlpha interpolates the float entries, and so does this pass)
+//   params  SYLVA_KD_BOX_PARAM_WORDS words, at word offsets:
+//           0-2 grid dimensions x, y, z     3 source (SYLVA_KD_BOX_SOURCE_*)
+//           4   classify (SYLVA_KD_BOX_CLASSIFY_*)
+//           5   cut (float bits): THRESHOLD occupied when density >= cut; ALPHA when alpha > cut
+//           6   range_lo (float bits)       7 range_inv (float bits)
+//           8   normalise: 1 = density clamp((raw - range_lo) * range_inv, 0, 1) and non-finite
+//               raw values are bad (volume::ClassifiedVolume); 0 = density = raw value and only
+//               NaN is bad (volume::ClassifiedGrid)
+//           9   transfer-function entries (ALPHA; >= 2)
+//
+// Block word (one per block, blocks numbered x fastest), 0 for an empty block:
+//   bits  0-2  box lo.x - 8 bx     bits  3-5  lo.y - 8 by     bits  6-8  lo.z - 8 bz
+//   bits  9-11 box hi.x - 1 - 8 bx bits 12-14 hi.y - 1 - 8 by bits 15-17 hi.z - 1 - 8 bz
+//   bits 18-27 occupied voxels of the block (0 .. 512; 0 = empty, bits 0-17 then 0)
+//   bit  31    a voxel of the block holds a bad float value (the host throws sylva::Error)
+#ifndef SYLVA_SHARED_KD_LOCAL_BOXES_H
+#define SYLVA_SHARED_KD_LOCAL_BOXES_H
+
+#include "sylva/shared/lang.h"
+
+#define SYLVA_KD_BOX_SOURCE_U8 0u
+#define SYLVA_KD_BOX_SOURCE_U16 1u
+#define SYLVA_KD_BOX_SOURCE_F32 2u
+#define SYLVA_KD_BOX_CLASSIFY_LUT 0u
+#define SYLVA_KD_BOX_CLASSIFY_THRESHOLD 1u
+#define SYLVA_KD_BOX_CLASSIFY_ALPHA 2u
+#define SYLVA_KD_BOX_PARAM_WORDS 10u
+#define SYLVA_KD_BOX_BAD 0x80000000u
+#define SYLVA_KD_BOX_COUNT_SHIFT 18u
+
+SYLVA_BEGIN_NAMESPACE
+
+/// The parameter block, decoded once per invocation (slab_z0 comes with the dispatch).
+struct SylvaKdBoxParams {
+    uvec3 dims;
+    uint slab_z0;
+    uint source;
+    uint classify;
+    float cut;
+    float range_lo;
+    float range_inv;
+    uint normalise;
+    uint tf_entries;
+};
+
+/// Reads the parameter block (layout above) for a slab starting at voxel slice `slab_z0`.
+SYLVA_FN SylvaKdBoxParams sylva_kd_box_params(SYLVA_BUF(params), uint slab_z0) {
+    SylvaKdBoxParams p;
+    p.dims = uvec3(SYLVA_LOAD(params, 0u), SYLVA_LOAD(params, 1u), SYLVA_LOAD(params, 2u));
+    p.slab_z0 = slab_z0;
+    p.source = SYLVA_LOAD(params, 3u);
+    p.classify = SYLVA_LOAD(params, 4u);
+    p.cut = uintBitsToFloat(SYLVA_LOAD(params, 5u));
+    p.range_lo = uintBitsToFloat(SYLVA_LOAD(params, 6u));
+    p.range_inv = uintBitsToFloat(SYLVA_LOAD(params, 7u));
+    p.normalise = SYLVA_LOAD(params, 8u);
+    p.tf_entries = SYLVA_LOAD(params, 9u);
+    return p;
+}
+
+/// Raw value of voxel `at` of an integer slab (uint8 or uint16 packing).
+SYLVA_FN uint sylva_kd_box_raw(SYLVA_BUF(voxels), uint source, uint at) {
+    if (source == SYLVA_KD_BOX_SOURCE_U8) return (SYLVA_LOAD(voxels, at >> 2u) >> ((at & 3u) * 8u)) & 255u;
+    return (SYLVA_LOAD(voxels, at >> 1u) >> ((at & 1u) * 16u)) & 65535u;
+}
+
+/// True when bit v of the value table is set.
+SYLVA_FN bool sylva_kd_box_lut(SYLVA_BUF(lut), uint v) { return ((SYLVA_LOAD(lut, v >> 5u) >> (v & 31u)) & 1u) != 0u; }
+
+/// True for NaN (any_nonfinite false) or for NaN and +-infinity (true), from the bits.
+SYLVA_FN bool sylva_kd_box_bad(float x, bool any_nonfinite) {
+    uint b = floatBitsToUint(x);
+    if ((b & 0x7f800000u) != 0x7f800000u) return false;
+    return any_nonfinite || (b & 0x007fffffu) != 0u;
+}
+
+/// Normalised density of a raw float value: volume::detail::normalised (clamped), or the value
+/// itself for a density grid.
+SYLVA_FN float sylva_kd_box_density(SylvaKdBoxParams p, float x) {
+    if (p.normalise == 0u) return x;
+    SYLVA_PRECISE float d = (x - p.range_lo) * p.range_inv;
+    return (d > 1.0f) ? 1.0f : ((d > 0.0f) ? d : 0.0f);
+}
+
+/// Alpha of density d, interpolated between the float entries exactly as
+/// volume::TransferFunction::at: x = clamp(d, 0, 1) (N - 1), i = min(floor(x), N - 2).
+SYLVA_FN float sylva_kd_box_alpha(SYLVA_BUF(alphas), uint entries, float d) {
+    float n1 = float(entries - 1u);
+    float c = (d > 0.0f) ? ((1.0f < d) ? 1.0f : d) : 0.0f;
+    SYLVA_PRECISE float x = c * n1;
+    uint i = uint(x);
+    if (i > entries - 2u) i = entries - 2u;
+    SYLVA_PRECISE float f = x - float(i);
+    float a0 = uintBitsToFloat(SYLVA_LOAD(alphas, i));
+    float a1 = uintBitsToFloat(SYLVA_LOAD(alphas, i + 1u));
+    SYLVA_PRECISE float a = a0 + (a1 - a0) * f;
+    return a;
+}
+
+/// Classifies voxel `at` of the slab: 0 empty, 1 occupied, 2 a bad float value (counted empty).
+SYLVA_FN uint sylva_kd_box_voxel(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(alphas), SylvaKdBoxParams p, uint at) {
+    if (p.source != SYLVA_KD_BOX_SOURCE_F32) {
+        return sylva_kd_box_lut(SYLVA_PASS_BUF(lut), sylva_kd_box_raw(SYLVA_PASS_BUF(voxels), p.source, at)) ? 1u : 0u;
+    }
+    float x = uintBitsToFloat(SYLVA_LOAD(voxels, at));
+    if (sylva_kd_box_bad(x, p.normalise != 0u)) return 2u;
+    float d = sylva_kd_box_density(p, x);
+    if (p.classify == SYLVA_KD_BOX_CLASSIFY_THRESHOLD) return (d >= p.cut) ? 1u : 0u;
+    return (sylva_kd_box_alpha(SYLVA_PASS_BUF(alphas), p.tf_entries, d) > p.cut) ? 1u : 0u;
+}
+
+/// The block word from the three OR-reduced masks, the count and the bad flag.
+SYLVA_FN uint sylva_kd_box_word(uint mx, uint my, uint mz, uint count, bool bad) {
+    uint w = bad ? SYLVA_KD_BOX_BAD : 0u;
+    if (count == 0u) return w;
+    w = w | uint(findLSB(mx)) | (uint(findLSB(my)) << 3u) | (uint(findLSB(mz)) << 6u);
+    w = w | (uint(findMSB(mx)) << 9u) | (uint(findMSB(my)) << 12u) | (uint(findMSB(mz)) << 15u);
+    return w | (count << SYLVA_KD_BOX_COUNT_SHIFT);
+}
+
+/// The block word of block `b` (block coordinates; its voxels must lie in the slab).
+SYLVA_FN uint sylva_kd_box_block(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(alphas), SylvaKdBoxParams p, uvec3 b) {
+    uvec3 base = uvec3(b.x * 8u, b.y * 8u, b.z * 8u);
+    uvec3 n = uvec3(min(8u, p.dims.x - base.x), min(8u, p.dims.y - base.y), min(8u, p.dims.z - base.z));
+    uint mx = 0u;
+    uint my = 0u;
+    uint mz = 0u;
+    uint count = 0u;
+    bool bad = false;
+    for (uint z = 0u; z < n.z; z++) {
+        for (uint y = 0u; y < n.y; y++) {
+            uint row = base.x + p.dims.x * (base.y + y + p.dims.y * (base.z + z - p.slab_z0));
+            uint m = 0u;
+            for (uint x = 0u; x < n.x; x++) {
+                uint v = sylva_kd_box_voxel(SYLVA_PASS_BUF(voxels), SYLVA_PASS_BUF(lut), SYLVA_PASS_BUF(alphas), p, row + x);
+                if (v == 2u) bad = true;
+                if (v == 1u) m = m | (1u << x);
+            }
+            if (m != 0u) {
+                mx = mx | m;
+                my = my | (1u << y);
+                mz = mz | (1u << z);
+                count = count + uint(bitCount(m));
+            }
+        }
+    }
+    return sylva_kd_box_word(mx, my, mz, count, bad);
+}
+
+/// Fields of a block word: local box corners (lo, hi - 1, each 0..7) and the count.
+SYLVA_FN uvec3 sylva_kd_box_word_lo(uint w) { return uvec3(w & 7u, (w >> 3u) & 7u, (w >> 6u) & 7u); }
+SYLVA_FN uvec3 sylva_kd_box_word_last(uint w) { return uvec3((w >> 9u) & 7u, (w >> 12u) & 7u, (w >> 15u) & 7u); }
+SYLVA_FN uint sylva_kd_box_word_count(uint w) { return (w >> SYLVA_KD_BOX_COUNT_SHIFT) & 1023u; }
+
+SYLVA_END_NAMESPACE
+
+#endif  // SYLVA_SHARED_KD_LOCAL_BOXES_H
