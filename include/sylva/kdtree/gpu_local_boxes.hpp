@@ -226,6 +226,7 @@ struct BoxClassifier {
     float cut = 0.0f;                   ///< threshold or min_alpha
     std::vector<std::uint32_t> lut;     ///< integer voxels: one bit per raw value
     std::vector<std::uint32_t> alphas;  ///< ALPHA: float bits of the transfer function's alpha entries
+    std::vector<std::uint8_t> table;    ///< scratch: the per-value verdicts, one byte each
 };
 
 namespace detail {
@@ -260,11 +261,10 @@ template <volume::VoxelClassifier C>
 void assign_box_classifier(const BoxSource& s, const C& classify, BoxClassifier& out) {
     out.alphas.clear();
     if (s.source != SYLVA_KD_BOX_SOURCE_F32) {
-        std::vector<std::uint8_t> table;
-        value_table(s, classify, table);
+        value_table(s, classify, out.table);
         out.classify = SYLVA_KD_BOX_CLASSIFY_LUT;
         out.cut = 0.0f;
-        detail::pack_bits(table, out.lut);
+        detail::pack_bits(out.table, out.lut);
         return;
     }
     out.lut.clear();

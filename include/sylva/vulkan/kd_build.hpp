@@ -1,0 +1,258 @@
+// sylva/vulkan/kd_build.hpp -- the GPU construction pass of Zellmann et al.'s binned kd-tree
+// builder (section 4.3) on a Vulkan device: the 8^3 local boxes of a classified volume computed
+// by shaders/kd_local_boxes.comp (the shared code of sylva/shared/kd_local_boxes.h), read back
+// and gathered along the Morton curve into kdtree::LocalBoxes; the node splitting then runs on
+// the host (kdtree/build_binned.hpp), as the paper's recursion does on the CPU.
+//
+//   auto ctx = sylva::vk::Context::create();
+//   sylva::vk::LocalBoxPass pass(ctx, volume);                    // voxels uploaded once
+//   sylva::kdtree::LocalBoxes boxes = pass.local_boxes(sylva::volume::TransferFunctionAlpha(tf));
+//   sylva::kdtree::Tree t = sylva::kdtree::build(boxes, sylva::kdtree::Config::deep().binned(), pool);
+//
+//   sylva::vk::KdRebuilder r(ctx, volume, sylva::kdtree::Config::deep().binned(), pool);
+//   sylva::kdtree::Tree t2 = r.rebuild(tf);                        // as kdtree::Rebuilder
+//
+// The voxels are copied to the device at construction, in slabs of whole 8-voxel block
+// layers that each fit one storage-buffer binding (lavapipe: 128 MiB), so any volume whose
+// single block layer fits works; each pass re-uploads only the classification (a per-value
+// bit table for integer voxels, the threshold or the transfer function's alpha entries for
+// float voxels) and dispatches once per slab.
+#ifndef SYLVA_VULKAN_KD_BUILD_HPP
+#define SYLVA_VULKAN_KD_BUILD_HPP
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sylva/core/concepts.hpp"
+#include "sylva/core/error.hpp"
+#include "sylva/kdtree/build_binned.hpp"
+#include "sylva/kdtree/gpu_local_boxes.hpp"
+#include "sylva/kdtree/rebuild.hpp"
+#include "sylva/spirv/kd_local_boxes.h"
+#include "sylva/vulkan/runner.hpp"
+
+namespace sylva::vk {
+
+/// Settings of the device local-box pass.
+struct LocalBoxPassConfig {
+    /// Most bytes of voxels one dispatch reads (one slab, whole 8-voxel block layers); 0 = the
+    /// device's maxStorageBufferRange (lavapipe: 128 MiB). Tests set it small to run several
+    /// slabs.
+    std::size_t max_slab_bytes = 0;
+};
+
+/// Where the time of one device pass went (milliseconds).
+struct LocalBoxPassTimings {
+    double upload_ms = 0.0;    ///< classification table and parameters to the device
+    double device_ms = 0.0;    ///< the dispatches on the device (timestamp queries), summed
+    double dispatch_ms = 0.0;  ///< the dispatches on the host clock (record, submit, wait)
+    double readback_ms = 0.0;  ///< block words back to the host
+    double gather_ms = 0.0;    ///< the Morton gather into LocalBoxes (0 for block_words)
+    /// Host wall time of the whole pass.
+    [[nodiscard]] double total_ms() const { return upload_ms + dispatch_ms + readback_ms + gather_ms; }
+};
+
+namespace detail {
+
+inline double kd_ms_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace detail
+
+/// A volume's voxels on the device and the kernel that computes their local boxes.
+/// The Context must outlive the pass; the volume need not (its voxels are copied).
+class LocalBoxPass {
+public:
+    /// Uploads the voxels of `s` in slabs. Throws sylva::Error when one block layer does not fit
+    /// a slab, or the block words do not fit one binding.
+    LocalBoxPass(Context& ctx, const kdtree::BoxSource& s, LocalBoxPassConfig cfg = {})
+        : ctx_(&ctx),
+          source_(s),
+          layers_(kdtree::slab_layers(s, cfg.max_slab_bytes ? std::min(cfg.max_slab_bytes, ctx.max_storage_buffer_range())
+                                                            : ctx.max_storage_buffer_range())),
+          blocks_(kdtree::block_counts(s.dims)),
+          out_(ctx, checked_block_bytes(ctx, blocks_)),
+          params_(ctx, SYLVA_KD_BOX_PARAM_WORDS * 4),
+          kernel_(ctx, spirv::kd_local_boxes, 5, 3 * 4) {
+        for (std::uint32_t bz0 = 0; bz0 < blocks_.z; bz0 += layers_) {
+            std::size_t z0 = std::size_t{bz0} * 8u, z1 = std::min<std::size_t>(s.dims.z, (std::size_t{bz0} + layers_) * 8u);
+            slabs_.emplace_back(ctx, (z1 - z0) * s.slice_bytes());
+            slabs_.back().upload_bytes(s.bytes.subspan(z0 * s.slice_bytes(), (z1 - z0) * s.slice_bytes()));
+        }
+        source_.bytes = {};  // not read after this point
+    }
+    /// Any volume, density grid or occupancy (kdtree::BoxSource::of).
+    template <class V>
+        requires requires(const V& v) { kdtree::BoxSource::of(v); }
+    LocalBoxPass(Context& ctx, const V& v, LocalBoxPassConfig cfg = {}) : LocalBoxPass(ctx, kdtree::BoxSource::of(v), cfg) {}
+
+    /// The dense block words (layout in sylva/shared/kd_local_boxes.h) under `c`, into `out`.
+    void block_words(const kdtree::BoxClassifier& c, std::vector<std::uint32_t>& out) {
+        timings_ = LocalBoxPassTimings{};
+        auto t0 = std::chrono::steady_clock::now();
+        upload_classifier(c);
+        timings_.upload_ms = detail::kd_ms_since(t0);
+        t0 = std::chrono::steady_clock::now();
+        for (std::size_t i = 0; i < slabs_.size(); ++i) timings_.device_ms += dispatch_slab(i);
+        timings_.dispatch_ms = detail::kd_ms_since(t0);
+        t0 = std::chrono::steady_clock::now();
+        out.resize(std::size_t{blocks_.x} * blocks_.y * blocks_.z);
+        out_.download(out);
+        timings_.readback_ms = detail::kd_ms_since(t0);
+    }
+    /// The same for any classifier (kdtree::assign_box_classifier says which run on the device).
+    template <volume::VoxelClassifier C>
+    void block_words(const C& classify, std::vector<std::uint32_t>& out) {
+        kdtree::assign_box_classifier(source_, classify, classifier_);
+        block_words(classifier_, out);
+    }
+
+    /// The Morton-sorted local boxes under `c`, into `out` (storage reused): the LocalBoxes
+    /// kdtree::local_boxes computes on the host. The Morton order is computed on first use.
+    void local_boxes(const kdtree::BoxClassifier& c, kdtree::LocalBoxes& out) {
+        block_words(c, words_);
+        auto t0 = std::chrono::steady_clock::now();
+        if (order_.size() == 0) order_ = kdtree::BlockOrder::of(source_.dims);
+        kdtree::gather_local_boxes(words_, order_, source_.spacing, out);
+        timings_.gather_ms = detail::kd_ms_since(t0);
+    }
+    template <volume::VoxelClassifier C>
+    void local_boxes(const C& classify, kdtree::LocalBoxes& out) {
+        kdtree::assign_box_classifier(source_, classify, classifier_);
+        local_boxes(classifier_, out);
+    }
+    template <volume::VoxelClassifier C>
+    [[nodiscard]] kdtree::LocalBoxes local_boxes(const C& classify) {
+        kdtree::LocalBoxes out;
+        local_boxes(classify, out);
+        return out;
+    }
+
+    /// Phases of the last pass.
+    [[nodiscard]] const LocalBoxPassTimings& timings() const { return timings_; }
+    /// The source's description (its bytes are no longer referenced).
+    [[nodiscard]] const kdtree::BoxSource& source() const { return source_; }
+    /// Number of slabs (dispatches a pass).
+    [[nodiscard]] std::size_t slab_count() const { return slabs_.size(); }
+
+private:
+    static std::size_t checked_block_bytes(const Context& ctx, uvec3 blocks) {
+        std::size_t bytes = std::size_t{blocks.x} * blocks.y * blocks.z * 4u;
+        if (bytes > ctx.max_storage_buffer_range())
+            throw Error("vk::LocalBoxPass: " + std::to_string(bytes / 4) + " block words exceed one storage binding");
+        return bytes;
+    }
+
+    void upload_classifier(const kdtree::BoxClassifier& c) {
+        auto params = kdtree::box_params(source_, c);
+        params_.upload(params);
+        if (c.classify == SYLVA_KD_BOX_CLASSIFY_ALPHA && c.alphas.size() < 2)
+            throw Error("vk::LocalBoxPass: a transfer function needs at least 2 alpha entries");
+        upload_words(lut_, c.lut);
+        upload_words(alphas_, c.alphas);
+    }
+    /// Keeps a buffer at least as large as `words` (reallocated only to grow) and uploads them.
+    void upload_words(std::optional<Buffer>& b, const std::vector<std::uint32_t>& words) {
+        if (!b || b->size_bytes() < words.size() * 4) b.emplace(*ctx_, words.size() * 4);
+        if (!words.empty()) b->upload(words);
+    }
+
+    double dispatch_slab(std::size_t i) {
+        std::uint32_t first = static_cast<std::uint32_t>(i) * layers_;
+        std::uint32_t layers = std::min(layers_, blocks_.z - first);
+        struct Push {
+            std::uint32_t slab_z0, first_layer, layers;
+        } push{first * 8u, first, layers};
+        std::array<Buffer*, 5> bind{&slabs_[i], &*lut_, &*alphas_, &params_, &out_};
+        return ctx_->dispatch(kernel_, bind, &push, sizeof push,
+                              groups_for(std::size_t{blocks_.x} * blocks_.y * layers, 64));
+    }
+
+    Context* ctx_;
+    kdtree::BoxSource source_;
+    std::uint32_t layers_;
+    uvec3 blocks_;
+    std::vector<Buffer> slabs_;
+    Buffer out_;
+    Buffer params_;
+    std::optional<Buffer> lut_, alphas_;
+    Kernel kernel_;
+    kdtree::BoxClassifier classifier_;
+    kdtree::BlockOrder order_;
+    std::vector<std::uint32_t> words_;
+    LocalBoxPassTimings timings_;
+};
+
+/// kdtree::Rebuilder with the local-box pass on the device: binned trees only (the pass gives
+/// local boxes; Config::planes must be Planes::Binned). Same trees as kdtree::Rebuilder and the
+/// fresh binned build. The Context and executor must outlive it; the volume need not.
+template <Executor X>
+class KdRebuilder {
+public:
+    /// A volume of any scalar type (voxels copied to the device); throws sylva::Error for a
+    /// config that is not binned or is invalid, or as LocalBoxPass does.
+    KdRebuilder(Context& ctx, const volume::Volume& v, const kdtree::Config& cfg, X& exec, LocalBoxPassConfig pass_cfg = {})
+        : pass_(ctx, kdtree::BoxSource::of(v), pass_cfg), exec_(&exec) {
+        set_config(cfg);
+    }
+    /// A normalised density grid (classified as it is).
+    KdRebuilder(Context& ctx, const volume::DensityGrid& g, const kdtree::Config& cfg, X& exec,
+                LocalBoxPassConfig pass_cfg = {})
+        : pass_(ctx, kdtree::BoxSource::of(g), pass_cfg), exec_(&exec) {
+        set_config(cfg);
+    }
+
+    /// The tree under `tf`: voxels whose alpha exceeds `min_alpha`.
+    kdtree::Tree rebuild(const volume::TransferFunction& tf, float min_alpha = 0.0f) {
+        return rebuild(volume::TransferFunctionAlpha(tf, min_alpha));
+    }
+    /// The tree under any classifier the device pass takes (kdtree::assign_box_classifier).
+    template <volume::VoxelClassifier C>
+    kdtree::Tree rebuild(const C& classify) {
+        timings_ = kdtree::RebuildTimings{};
+        auto t0 = std::chrono::steady_clock::now();
+        kdtree::assign_box_classifier(pass_.source(), classify, classifier_);
+        timings_.classify_ms = detail::kd_ms_since(t0);
+        pass_.local_boxes(classifier_, boxes_);
+        timings_.occupancy_ms = pass_.timings().total_ms();
+        kdtree::Tree t = kdtree::build(boxes_, cfg_, *exec_);
+        timings_.split_ms = t.stats.split_ms;
+        t.stats.occupancy_ms = timings_.classify_ms + timings_.occupancy_ms;
+        return t;
+    }
+
+    /// Throws sylva::Error unless `cfg` is a valid binned config.
+    void set_config(const kdtree::Config& cfg) {
+        if (cfg.planes != kdtree::Planes::Binned)
+            throw Error("vk::KdRebuilder: the device pass builds binned trees only (use Config::binned())");
+        if (cfg.raster == 0 || cfg.raster % kdtree::LocalBoxes::block != 0)
+            throw Error("kdtree: the binned builder's raster must be a multiple of the 8-voxel block");
+        kdtree::detail::check_config(cfg);
+        cfg_ = cfg;
+    }
+    [[nodiscard]] const kdtree::Config& config() const { return cfg_; }
+    [[nodiscard]] const kdtree::RebuildTimings& timings() const { return timings_; }
+    /// The device pass of the last rebuild, phase by phase.
+    [[nodiscard]] const LocalBoxPassTimings& pass_timings() const { return pass_.timings(); }
+    [[nodiscard]] const kdtree::LocalBoxes& local_boxes() const { return boxes_; }
+
+private:
+    LocalBoxPass pass_;
+    X* exec_;
+    kdtree::Config cfg_;
+    kdtree::RebuildTimings timings_;
+    kdtree::BoxClassifier classifier_;
+    kdtree::LocalBoxes boxes_;
+};
+
+}  // namespace sylva::vk
+
+#endif  // SYLVA_VULKAN_KD_BUILD_HPP
