@@ -95,6 +95,10 @@ SYLVA_FN void sylva_bih_dvr_sample(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(tf), 
 
 /// Single-sample BIH-DVR of the ray origin + t * direction over [t_min, t_max] (direction
 /// normalised here: t is world distance). Returns premultiplied RGB and opacity.
+/// Each leaf's segment starts where the previous one ended: 16-bit planes round outwards, so
+/// neighbouring leaf boxes overlap by up to 1/32768 of the root box, and without the clip the
+/// overlap would be integrated twice (measured: PSNR against the marcher stopped rising with
+/// the resampling factor). Leaves of a voxel grid come strictly front to back otherwise.
 SYLVA_FN vec4 sylva_bih_dvr_single(SYLVA_BUF(words), SYLVA_BUF(tf), SylvaDvrParams p, vec3 origin, vec3 direction,
                                    float t_min, float t_max, SYLVA_OUT(uint) steps, SYLVA_OUT(uint) status) {
     vec3 d = sylva_dvr_unit(direction);
@@ -104,7 +108,10 @@ SYLVA_FN vec4 sylva_bih_dvr_single(SYLVA_BUF(words), SYLVA_BUF(tf), SylvaDvrPara
     uint leaf;
     float t0;
     float t1;
+    float t_done = t_min;  // integrated up to here: a leaf starts no earlier (no double counting)
     while (acc.alpha < p.alpha_stop && sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t0, t1)) {
+        t0 = sylva_max(t0, t_done);
+        t_done = sylva_max(t_done, t1);
         SYLVA_PRECISE float len = t1 - t0;
         if (!(len > 0.0f)) continue;
         SylvaVoxel v = sylva_voxel_unpack(sylva_bih_payload(SYLVA_PASS_BUF(words), it.hdr, leaf));
@@ -142,7 +149,11 @@ SYLVA_FN vec4 sylva_bih_dvr_multi(SYLVA_BUF(words), SYLVA_BUF(tf), SylvaDvrParam
     float t0;
     float t1;
     bool usable = p.dt > 0.0f && p.unit > 0.0f;
+    float t_done = t_min;  // lattice samples before this were taken by earlier leaves
     while (usable && acc.alpha < p.alpha_stop && sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t0, t1)) {
+        t0 = sylva_max(t0, t_done);
+        t_done = sylva_max(t_done, t1);
+        if (!(t1 > t0)) continue;
         SylvaVoxel v = sylva_voxel_unpack(sylva_bih_payload(SYLVA_PASS_BUF(words), it.hdr, leaf));
         vec3 c = sylva_bih_dvr_center(it.hdr, it.leaf_lo, it.leaf_hi);
         sylva_bih_dvr_leaf_lattice(acc, SYLVA_PASS_BUF(tf), p, v, c, origin, d, t0, t1);
