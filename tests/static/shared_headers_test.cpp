@@ -12,4 +12,5 @@
 #include <sylva/shared/bih_dvr.h>
 #include <sylva/shared/kd_layout.h>
 #include <sylva/shared/kd_iter.h>
+#include <sylva/shared/kd_dvr.h>
 #include <sylva/shared/kd_local_boxes.h>

@@ -1,0 +1,336 @@
+// DVR with empty-space skipping by kd-trees (sylva/shared/kd_dvr.h, sylva/render/kd_volume.hpp)
+// against the plain reference marcher (sylva_dvr_march), which knows nothing of trees: the
+// images must be identical, bit for bit, on procedural and real volumes, for shallow and deep
+// trees from the Vidal (full SVT) and binned builders. Also: the occupancy against brute-force
+// neighbourhoods and an analytic TF test, every lattice sample taken exactly once where leaves
+// share faces, and bad input.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <random>
+
+#include <sylva/core/executor.hpp>
+#include <sylva/kdtree/build.hpp>
+#include <sylva/kdtree/build_binned.hpp>
+#include <sylva/kdtree/encode.hpp>
+#include <sylva/kdtree/query.hpp>
+#include <sylva/render/kd_volume.hpp>
+#include <sylva/render/metrics.hpp>
+#include <sylva/volume/classify.hpp>
+#include <sylva/volume/procedural.hpp>
+#include <sylva/volume/read_raw.hpp>
+#include <sylva/volume/transfer_function.hpp>
+
+#include "reference.hpp"
+
+using namespace sylva;
+
+namespace {
+
+enum class Builder { Vidal, Binned };
+
+kdtree::Tree build_tree(const volume::Occupancy& occ, Builder b, const kdtree::Config& cfg, ThreadPool& pool) {
+    return b == Builder::Vidal ? kdtree::build_vidal(occ, cfg) : kdtree::build_binned(occ, cfg, pool);
+}
+
+const char* name(Builder b) { return b == Builder::Vidal ? "vidal" : "binned"; }
+
+/// Number of pixels whose RGBA differ in any bit.
+std::size_t bitwise_differing(const Frame& a, const Frame& b) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < a.rgba.size(); ++i) n += std::memcmp(&a.rgba[i], &b.rgba[i], sizeof(vec4)) != 0;
+    return n;
+}
+
+double summed_alpha(const Frame& f) {
+    double s = 0.0;
+    for (const vec4& c : f.rgba) s += c.a;
+    return s;
+}
+
+std::uint64_t summed_steps(const Frame& f) {
+    std::uint64_t s = 0;
+    for (std::uint32_t v : f.steps) s += v;
+    return s;
+}
+
+std::uint32_t rgba8(float r, float g, float b, float a) {
+    auto c = [](float x) { return static_cast<std::uint32_t>(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); };
+    return c(r) | (c(g) << 8) | (c(b) << 16) | (c(a) << 24);
+}
+
+/// A 256-entry TF whose alpha is `peak` on [lo, hi] only (a band), colour varying with density.
+std::vector<std::uint32_t> band_tf(float lo, float hi, float peak) {
+    std::vector<std::uint32_t> tf(256);
+    for (std::size_t i = 0; i < tf.size(); ++i) {
+        float d = float(i) / 255.0f;
+        tf[i] = rgba8(0.3f + 0.7f * d, 0.8f - 0.5f * d, 0.4f, d >= lo && d <= hi ? peak : 0.0f);
+    }
+    return tf;
+}
+
+VolumeRenderParams params(const volume::DensityGrid& g, vec3 from, std::uint32_t size,
+                          std::vector<std::uint32_t> tf) {
+    VolumeRenderParams p;
+    p.width = p.height = size;
+    p.camera = Camera::framing(g.world_box(), from, 34.0f).frame(size, size);
+    p.tf = std::move(tf);
+    p.unit = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+    return p;
+}
+
+/// Renders `g` with the marcher and with ESS over a tree of every builder and depth and
+/// requires identical images; returns the ESS/marcher ratio of summed steps (deep, Vidal).
+double check_exact(const volume::DensityGrid& g, const VolumeRenderParams& p, ThreadPool& pool,
+                   double min_alpha_sum) {
+    GridWords gw = GridWords::from(g);
+    NeighbourhoodRanges ranges = neighbourhood_ranges(g, pool);
+    EssOccupancy occ = ess_occupancy(ranges, p.tf, pool);
+    Frame ref = render_dvr_cpu(gw, p, pool);
+    INFO("occupied " << occ.occupied << " of " << g.values.size() << " voxels");
+    CHECK(summed_alpha(ref) > min_alpha_sum);  // the images are not trivially empty
+    double ratio = 0.0;
+    for (Builder b : {Builder::Vidal, Builder::Binned}) {
+        for (bool deep : {false, true}) {
+            kdtree::Tree t = build_tree(occ.occupancy, b, deep ? kdtree::Config::deep() : kdtree::Config::shallow(), pool);
+            std::vector<std::uint32_t> words = kdtree::encode(t);
+            Frame ess = render_kd_dvr_cpu(gw, words, p, pool);
+            ImageDifference d = compare_frames(ref, ess);
+            INFO(name(b) << (deep ? " deep" : " shallow") << ": " << t.leaves.size() << " leaves, depth "
+                         << t.stats.max_depth << ", PSNR " << d.psnr << " dB, max diff " << d.max_abs);
+            CHECK(bitwise_differing(ref, ess) == 0);
+            for (std::uint32_t s : ess.steps) REQUIRE(s != 0xFFFFFFFFu);
+            if (deep && b == Builder::Vidal)
+                ratio = double(summed_steps(ess)) / double(std::max<std::uint64_t>(summed_steps(ref), 1));
+        }
+    }
+    return ratio;
+}
+
+}  // namespace
+
+TEST_CASE("ess dvr: ESS images equal the marcher's on a sparse procedural volume", "[kd_dvr]") {
+    ThreadPool pool(2);
+    volume::SparseNbodyConfig cfg;
+    cfg.blobs = 600;
+    cfg.spacing = vec3(1.0f, 1.1f, 0.9f);
+    volume::DensityGrid g = volume::sparse_nbody({64, 56, 48}, 3u, cfg);
+    for (vec3 from : {vec3(0.4f, 0.3f, 1.0f), vec3(0.0f, 0.0f, 1.0f), vec3(1.0f, 0.0f, 0.0f), vec3(-0.3f, -0.9f, 0.2f)}) {
+        INFO("view from " << from.x << "," << from.y << "," << from.z);
+        VolumeRenderParams p = params(g, from, 64, volume::TransferFunction::ct_bone_tissue().packed_rgba8());
+        p.shading = from.x > 0.3f;
+        double ratio = check_exact(g, p, pool, 5.0);
+        CHECK(ratio < 0.5);  // a sparse volume: most lattice samples are skipped
+    }
+}
+
+TEST_CASE("ess dvr: ESS images equal the marcher's on Marschner-Lobb with a band TF", "[kd_dvr]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = volume::marschner_lobb({40, 36, 44});
+    for (vec3 from : {vec3(0.5f, 0.7f, 0.4f), vec3(0.0f, 0.0f, -1.0f)}) {
+        VolumeRenderParams p = params(g, from, 56, band_tf(0.62f, 0.7f, 0.3f));
+        p.dt = 0.37f;  // an odd lattice spacing
+        check_exact(g, p, pool, 5.0);
+    }
+}
+
+TEST_CASE("ess dvr: a camera inside the volume, early termination and t ranges", "[kd_dvr]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = volume::sparse_nbody({48, 48, 48}, 11u);
+    VolumeRenderParams p = params(g, vec3(0.3f, 0.2f, 1.0f), 48, volume::TransferFunction::ct_bone_tissue().packed_rgba8());
+    p.camera = Camera{vec3(20.0f, 25.0f, 30.0f), vec3(24.0f, 22.0f, 0.0f), {0.0f, 1.0f, 0.0f}, 70.0f}.frame(48, 48);
+    p.alpha_stop = 0.3f;  // early termination cuts many rays
+    double ratio = check_exact(g, p, pool, 2.0);
+    CHECK(ratio < 1.0);
+}
+
+TEST_CASE("ess dvr: the occupancy holds every voxel whose neighbourhood can be visible", "[kd_dvr]") {
+    ThreadPool pool(2);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    volume::Dims dims{13, 9, 11};
+    volume::DensityGrid g{dims, vec3(1.0f), std::vector<float>(volume::voxel_count(dims))};
+    for (float& v : g.values) v = u(rng) < 0.97f ? u(rng) * 0.4f : u(rng) * 1.2f - 0.1f;  // also outside [0, 1]
+    NeighbourhoodRanges r = neighbourhood_ranges(g, pool);
+    std::vector<std::uint32_t> tf = band_tf(0.41f, 0.47f, 0.5f);
+    auto texel_alpha = [&](std::size_t i) { return double(tf[i] >> 24) / 255.0; };
+    // Independent: alpha of the piecewise-linear table is > 0 somewhere in [a, b] iff it is at a
+    // or b, or at an entry position strictly inside.
+    auto alpha_at = [&](double d) {
+        d = std::clamp(d, 0.0, 1.0) * 255.0;
+        std::size_t i = std::min<std::size_t>(std::size_t(d), 255), j = std::min<std::size_t>(i + 1, 255);
+        return texel_alpha(i) + (texel_alpha(j) - texel_alpha(i)) * (d - double(i));
+    };
+    auto visible = [&](double a, double b) {
+        if (alpha_at(a) > 0.0 || alpha_at(b) > 0.0) return true;
+        for (std::size_t i = 0; i < 256; ++i)
+            if (double(i) / 255.0 > a && double(i) / 255.0 < b && texel_alpha(i) > 0.0) return true;
+        return false;
+    };
+    volume::Occupancy mask{dims, vec3(1.0f), std::vector<std::uint8_t>(g.values.size())};
+    VisibleDensities vis = visible_densities(tf);
+    std::size_t visible_count = 0;
+    for (std::uint32_t z = 0; z < dims.z; ++z)
+        for (std::uint32_t y = 0; y < dims.y; ++y)
+            for (std::uint32_t x = 0; x < dims.x; ++x) {
+                double lo = 1e9, hi = -1e9;
+                for (int dz = -1; dz <= 1; ++dz)
+                    for (int dy = -1; dy <= 1; ++dy)
+                        for (int dx = -1; dx <= 1; ++dx) {
+                            double v = std::clamp(double(g.clamped(std::int64_t{x} + dx, std::int64_t{y} + dy, std::int64_t{z} + dz)), 0.0, 1.0);
+                            lo = std::min(lo, v);
+                            hi = std::max(hi, v);
+                        }
+                std::size_t i = volume::voxel_index(dims, x, y, z);
+                REQUIRE(r.lo[i] == std::uint16_t(std::floor(lo * 65535.0)));
+                REQUIRE(r.hi[i] == std::uint16_t(std::ceil(hi * 65535.0)));
+                bool ours = vis.any(r.lo[i], r.hi[i]);
+                if (visible(lo, hi)) REQUIRE(ours);                    // conservative
+                if (ours) REQUIRE(visible(lo - 1e-4, hi + 1e-4));      // and not much more
+                mask.voxels[i] = ours ? 1u : 0u;
+                visible_count += ours;
+            }
+    CHECK(visible_count > 20);
+    CHECK(visible_count < g.values.size() - 20);
+    EssOccupancy occ = ess_occupancy(r, std::span<const std::uint32_t>(tf), pool);
+    CHECK(occ.occupied == visible_count);
+    CHECK(occ.occupancy.voxels == mask.voxels);
+    // Threshold classification: neighbourhood maximum reaching the threshold.
+    VisibleDensities above = visible_at_or_above(0.5f);
+    for (std::size_t i = 0; i < r.lo.size(); ++i) {
+        if (r.hi[i] >= 32768u) REQUIRE(above.any(r.lo[i], r.hi[i]));
+        if (r.hi[i] < 32700u) REQUIRE(!above.any(r.lo[i], r.hi[i]));
+    }
+}
+
+TEST_CASE("ess dvr: classifying voxels by their own density and dilating misses a visible band", "[kd_dvr]") {
+    // Voxels alternate between 0.2 and 0.8 inside a box; the TF is visible only near 0.5, which
+    // no voxel holds but every trilinear blend between the two values passes through.
+    ThreadPool pool(2);
+    volume::Dims dims{24, 20, 22};
+    volume::DensityGrid g{dims, vec3(1.0f), std::vector<float>(volume::voxel_count(dims), 0.0f)};
+    for (std::uint32_t z = 6; z < 16; ++z)
+        for (std::uint32_t y = 5; y < 15; ++y)
+            for (std::uint32_t x = 7; x < 17; ++x) g.values[volume::voxel_index(dims, x, y, z)] = (x + y + z) % 2 ? 0.8f : 0.2f;
+    volume::TransferFunction tf = volume::TransferFunction({{0.0f, {0.0f, 0.0f, 0.0f, 0.0f}},
+                                                            {0.44f, {0.5f, 0.5f, 0.5f, 0.0f}},
+                                                            {0.5f, {0.5f, 0.5f, 0.5f, 0.6f}},
+                                                            {0.56f, {0.5f, 0.5f, 0.5f, 0.0f}},
+                                                            {1.0f, {0.0f, 0.0f, 0.0f, 0.0f}}});
+    VolumeRenderParams p = params(g, vec3(0.3f, 0.5f, 1.0f), 48, tf.packed_rgba8());
+    GridWords gw = GridWords::from(g);
+    Frame ref = render_dvr_cpu(gw, p, pool);
+    REQUIRE(summed_alpha(ref) > 10.0);
+    auto naive_src = volume::classified(g, volume::TransferFunctionAlpha(tf));
+    volume::Occupancy naive = volume::dilate(volume::classify(naive_src, pool), 1, pool);
+    CHECK(naive.count() == 0);  // no voxel's own density is visible
+    Frame missed = render_kd_dvr_cpu(gw, kdtree::encode(kdtree::build_vidal(naive, kdtree::Config::deep())), p, pool);
+    CHECK(bitwise_differing(ref, missed) > 100);
+
+    check_exact(g, p, pool, 10.0);
+}
+
+TEST_CASE("ess dvr: a lattice sample on a face shared by two leaves is taken once, none is lost", "[kd_dvr]") {
+    // Every voxel visible: the deep tree's leaves tile the grid with shared faces, and the ESS
+    // marcher must take exactly the marcher's samples on every ray, among them rays along the
+    // axes whose lattice points fall exactly on the leaves' faces (dt = 0.5, faces every 8).
+    ThreadPool pool(2);
+    volume::Dims dims{32, 32, 32};
+    volume::DensityGrid g = volume::constant_box(dims, 0.5f);
+    GridWords gw = GridWords::from(g);
+    std::vector<std::uint32_t> tf(256, rgba8(0.6f, 0.5f, 0.4f, 0.01f));
+    EssOccupancy occ = ess_occupancy(neighbourhood_ranges(g, pool), std::span<const std::uint32_t>(tf), pool);
+    REQUIRE(occ.occupied == g.values.size());
+    kdtree::Tree t = kdtree::build_vidal(occ.occupancy, kdtree::Config::deep());
+    REQUIRE(t.leaves.size() >= 64);
+    std::vector<std::uint32_t> words = kdtree::encode(t);
+
+    VolumeRenderParams p;
+    p.tf = tf;
+    p.dt = 0.5f;
+    p.alpha_stop = 2.0f;  // never stop: every sample counts
+    std::vector<std::uint32_t> pw = kd_dvr_params(gw, words, p);
+    shared::Words pws{pw.data(), pw.size()}, kw{words.data(), words.size()}, gws{gw.words.data(), gw.words.size()},
+        tw{tf.data(), tf.size()};
+    shared::SylvaDvrParams sp = shared::sylva_dvr_params(pws);
+
+    std::vector<Ray> rays;
+    for (float y : {3.25f, 8.0f, 16.0f, 23.5f})
+        for (float z : {0.5f, 8.0f, 11.75f}) {
+            rays.push_back({vec3(-4.0f, y, z), vec3(1.0f, 0.0f, 0.0f)});
+            rays.push_back({vec3(36.0f, z, y), vec3(-1.0f, 0.0f, 0.0f)});
+            rays.push_back({vec3(y, z, -8.0f), vec3(0.0f, 0.0f, 1.0f)});
+            rays.push_back({vec3(y, 40.0f, z), vec3(0.0f, -1.0f, 0.0f)});
+        }
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (int i = 0; i < 2000; ++i) {
+        vec3 o = vec3(16.0f) + vec3(u(rng), u(rng), u(rng)) * 40.0f, target = vec3(16.0f) + vec3(u(rng), u(rng), u(rng)) * 16.0f;
+        if (i % 5 == 0) o = vec3(16.0f) + vec3(u(rng), u(rng), u(rng)) * 16.0f;  // inside
+        rays.push_back({o, target - o});
+    }
+    std::size_t on_face_rays = 0;
+    for (const Ray& r : rays) {
+        std::uint32_t ref_steps, ess_steps, status;
+        vec4 a = shared::sylva_dvr_march(gws, tw, sp, r.origin, r.direction, 0.0f, shared::sylva_inf(), ref_steps);
+        vec4 b = shared::sylva_kd_dvr_march(kw, gws, tw, sp, r.origin, r.direction, 0.0f, shared::sylva_inf(), ess_steps,
+                                            status);
+        // Iterator steps of the same (normalised) ray, counted separately.
+        kdtree::LeafIterator it(words, Ray{r.origin, shared::sylva_dvr_unit(r.direction)}, Interval{});
+        std::size_t leaves = 0;
+        while (it.next()) ++leaves;
+        INFO("ray " << r.origin.x << "," << r.origin.y << "," << r.origin.z << " dir " << r.direction.x << ","
+                    << r.direction.y << "," << r.direction.z << ": " << leaves << " leaves");
+        REQUIRE(status == SYLVA_ITER_DONE);
+        REQUIRE(ess_steps - it.steps() == ref_steps);  // samples = the marcher's, each once
+        REQUIRE(std::memcmp(&a, &b, sizeof a) == 0);
+        on_face_rays += (leaves >= 4 && (r.direction.x == 1.0f || r.direction.z == 1.0f)) ? 1 : 0;
+    }
+    CHECK(on_face_rays >= 24);  // axis rays crossing >= 3 shared faces at lattice points
+}
+
+TEST_CASE("ess dvr: aneurism, shallow and deep trees of both builders, images equal the marcher's",
+          "[kd_dvr][data]") {
+    std::string path = kdtest::data_file("aneurism_256x256x256_uint8.raw");
+    if (path.empty()) return;
+    ThreadPool pool(2);
+    volume::DensityGrid g = volume::normalize(volume::read_raw(path, volume::parse_raw_name(path)));
+    VolumeRenderParams p = params(g, vec3(0.4f, 0.3f, 1.0f), 96, volume::TransferFunction::ct_bone_tissue().packed_rgba8());
+    p.shading = true;
+    double ratio = check_exact(g, p, pool, 50.0);
+    CHECK(ratio < 0.5);
+}
+
+TEST_CASE("ess dvr: trees that do not fit the grid are refused, corrupt trees are flagged", "[kd_dvr]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = volume::sparse_nbody({24, 24, 24}, 2u);
+    GridWords gw = GridWords::from(g);
+    VolumeRenderParams p = params(g, vec3(0.4f, 0.3f, 1.0f), 16, volume::TransferFunction::ct_bone_tissue().packed_rgba8());
+    EssOccupancy occ = ess_occupancy(neighbourhood_ranges(g, pool), p.tf, pool);
+    kdtree::Tree t = kdtree::build_vidal(occ.occupancy, kdtree::Config::deep());
+    std::vector<std::uint32_t> words = kdtree::encode(t);
+    CHECK_NOTHROW(render_kd_dvr_cpu(gw, words, p, pool));
+
+    volume::DensityGrid other = volume::sparse_nbody({24, 24, 20}, 2u);
+    CHECK_THROWS_WITH(render_kd_dvr_cpu(GridWords::from(other), words, p, pool), Catch::Contains("kd-tree's grid is"));
+    kdtree::Tree moved = t;
+    moved.origin = vec3(1.0f, 0.0f, 0.0f);
+    CHECK_THROWS_WITH(render_kd_dvr_cpu(gw, kdtree::encode(moved), p, pool), Catch::Contains("origin must be 0"));
+    kdtree::Tree stretched = t;
+    stretched.spacing = vec3(1.0f, 2.0f, 1.0f);
+    CHECK_THROWS_WITH(render_kd_dvr_cpu(gw, kdtree::encode(stretched), p, pool), Catch::Contains("spacing"));
+    std::vector<std::uint32_t> junk(64, 7u);
+    CHECK_THROWS_WITH(render_kd_dvr_cpu(gw, junk, p, pool), Catch::Contains("not a valid encoded kd-tree"));
+    CHECK_THROWS_WITH(visible_densities(std::vector<std::uint32_t>{5u}), Catch::Contains("at least 2 entries"));
+
+    // A child link pointing back at its parent: the rays that reach it report 0xFFFFFFFF steps.
+    REQUIRE(t.nodes.size() > 3);
+    std::vector<std::uint32_t> bad = words;
+    bad[SYLVA_KD_HEADER_WORDS + 3] = (bad[SYLVA_KD_HEADER_WORDS + 3] & 3u);  // root's lower child := 0
+    Frame f = render_kd_dvr_cpu(gw, bad, p, pool);
+    std::size_t flagged = 0;
+    for (std::uint32_t s : f.steps) flagged += s == 0xFFFFFFFFu;
+    CHECK(flagged > 0);
+}
