@@ -5,14 +5,14 @@
 # 16-bit planes), then copies a few informative images into docs/images/ as
 # volume_<case>_<renderer>_x<factor>.png (renderer: reference, single, multi, heat).
 #   scripts/volume_figures.sh [JSON_OUT]       (default /tmp/volume_bench.json)
-# Environment: SYLVA_BUILD_DIR (default build-h6), SYLVA_DATA (default ../shared/data beside the
+# Environment: SYLVA_BUILD_DIR (default build, as scripts/test.sh), SYLVA_DATA (default ../shared/data beside the
 # checkout), SYLVA_VOLUME_BACKEND (default both), SYLVA_VOLUME_RUNS (default 3).
 # The full tables go to stdout and to JSON_OUT.log beside the JSON.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 json=${1:-/tmp/volume_bench.json}
-build=${SYLVA_BUILD_DIR:-$root/build-h6}
+build=${SYLVA_BUILD_DIR:-$root/build}
 data=${SYLVA_DATA:-$root/../shared/data}
 backend=${SYLVA_VOLUME_BACKEND:-both}
 runs=${SYLVA_VOLUME_RUNS:-3}
