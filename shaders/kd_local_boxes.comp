@@ -7,8 +7,12 @@
 // 2 the transfer function's alpha entries (float bits); 3 the parameter block
 // (SYLVA_KD_BOX_PARAM_WORDS words); 4 output, one word per block of the whole grid (x fastest).
 // Push constants: first voxel slice of the slab, first block layer (z) of the slab, layers.
+// Specialization constants: 0 source, 1 classify (the parameter block's words 3 and 4, fixed
+// per pipeline so that the per-voxel branches fold away).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 64) in;
+layout(constant_id = 0) const uint SOURCE = 0u;
+layout(constant_id = 1) const uint CLASSIFY = 0u;
 
 layout(std430, binding = 0) readonly buffer Voxels { uint voxel_words[]; };
 layout(std430, binding = 1) readonly buffer Lut { uint lut_words[]; };
@@ -30,6 +34,8 @@ uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_w
 
 void main() {
     SylvaKdBoxParams p = sylva_kd_box_params(0u, pc.slab_z0);
+    p.source = SOURCE;
+    p.classify = CLASSIFY;
     uint nx = (p.dims.x + 7u) >> 3u;
     uint per_layer = nx * ((p.dims.y + 7u) >> 3u);
     uint i = gl_GlobalInvocationID.x;

@@ -78,10 +78,11 @@ SYLVA_FN SylvaKdBoxParams sylva_kd_box_params(SYLVA_BUF(params), uint slab_z0) {
     return p;
 }
 
-/// Raw value of voxel `at` of an integer slab (uint8 or uint16 packing).
-SYLVA_FN uint sylva_kd_box_raw(SYLVA_BUF(voxels), uint source, uint at) {
-    if (source == SYLVA_KD_BOX_SOURCE_U8) return (SYLVA_LOAD(voxels, at >> 2u) >> ((at & 3u) * 8u)) & 255u;
-    return (SYLVA_LOAD(voxels, at >> 1u) >> ((at & 1u) * 16u)) & 65535u;
+/// True when bit v of a 256-bit table held in two uvec4 (word q of lo for q < 4, else of hi).
+SYLVA_FN bool sylva_kd_box_bit256(uvec4 lo, uvec4 hi, uint v) {
+    uint q = v >> 5u;
+    uvec4 h = (q < 4u) ? lo : hi;
+    return ((h[q & 3u] >> (v & 31u)) & 1u) != 0u;
 }
 
 /// True when bit v of the value table is set.
@@ -117,16 +118,64 @@ SYLVA_FN float sylva_kd_box_alpha(SYLVA_BUF(alphas), uint entries, float d) {
     return a;
 }
 
-/// Classifies voxel `at` of the slab: 0 empty, 1 occupied, 2 a bad float value (counted empty).
-SYLVA_FN uint sylva_kd_box_voxel(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(alphas), SylvaKdBoxParams p, uint at) {
-    if (p.source != SYLVA_KD_BOX_SOURCE_F32) {
-        return sylva_kd_box_lut(SYLVA_PASS_BUF(lut), sylva_kd_box_raw(SYLVA_PASS_BUF(voxels), p.source, at)) ? 1u : 0u;
-    }
-    float x = uintBitsToFloat(SYLVA_LOAD(voxels, at));
+/// Classifies one float voxel: 0 empty, 1 occupied, 2 a bad value (counted empty).
+SYLVA_FN uint sylva_kd_box_float(SYLVA_BUF(alphas), SylvaKdBoxParams p, float x) {
     if (sylva_kd_box_bad(x, p.normalise != 0u)) return 2u;
     float d = sylva_kd_box_density(p, x);
     if (p.classify == SYLVA_KD_BOX_CLASSIFY_THRESHOLD) return (d >= p.cut) ? 1u : 0u;
     return (sylva_kd_box_alpha(SYLVA_PASS_BUF(alphas), p.tf_entries, d) > p.cut) ? 1u : 0u;
+}
+
+/// The occupancy mask of the n (<= 8) voxels of a row starting at slab voxel `at` (bit k =
+/// voxel at + k), plus 256 when one of them holds a bad float value. Integer voxels are read a
+/// word at a time (four uint8 or two uint16 a load); uint8 values look up the 256-bit table
+/// (lut_lo, lut_hi), uint16 values the `lut` buffer.
+SYLVA_FN uint sylva_kd_box_row(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(alphas), SylvaKdBoxParams p, uvec4 lut_lo,
+                               uvec4 lut_hi, uint at, uint n) {
+    uint m = 0u;
+    if (p.source == SYLVA_KD_BOX_SOURCE_U8 && n == 8u) {  // a whole row: eight bytes from two or three words
+        uint w = at >> 2u;
+        uint s = (at & 3u) * 8u;
+        uint w0 = SYLVA_LOAD(voxels, w);
+        uint w1 = SYLVA_LOAD(voxels, w + 1u);
+        uint lo = w0;
+        uint hi = w1;
+        if (s != 0u) {
+            uint w2 = SYLVA_LOAD(voxels, w + 2u);
+            lo = (w0 >> s) | (w1 << (32u - s));
+            hi = (w1 >> s) | (w2 << (32u - s));
+        }
+        for (uint k = 0u; k < 4u; k++) {
+            if (sylva_kd_box_bit256(lut_lo, lut_hi, (lo >> (k * 8u)) & 255u)) m = m | (1u << k);
+            if (sylva_kd_box_bit256(lut_lo, lut_hi, (hi >> (k * 8u)) & 255u)) m = m | (16u << k);
+        }
+        return m;
+    }
+    if (p.source == SYLVA_KD_BOX_SOURCE_U16 && n == 8u && (at & 1u) == 0u) {  // a whole aligned row: four words
+        for (uint k = 0u; k < 4u; k++) {
+            uint w = SYLVA_LOAD(voxels, (at >> 1u) + k);
+            if (sylva_kd_box_lut(SYLVA_PASS_BUF(lut), w & 65535u)) m = m | (1u << (2u * k));
+            if (sylva_kd_box_lut(SYLVA_PASS_BUF(lut), w >> 16u)) m = m | (2u << (2u * k));
+        }
+        return m;
+    }
+    uint cur = 0u;
+    for (uint k = 0u; k < n; k++) {
+        uint i = at + k;
+        uint v = 0u;
+        if (p.source == SYLVA_KD_BOX_SOURCE_U8) {
+            if (k == 0u || (i & 3u) == 0u) cur = SYLVA_LOAD(voxels, i >> 2u);
+            v = sylva_kd_box_bit256(lut_lo, lut_hi, (cur >> ((i & 3u) * 8u)) & 255u) ? 1u : 0u;
+        } else if (p.source == SYLVA_KD_BOX_SOURCE_U16) {
+            if (k == 0u || (i & 1u) == 0u) cur = SYLVA_LOAD(voxels, i >> 1u);
+            v = sylva_kd_box_lut(SYLVA_PASS_BUF(lut), (cur >> ((i & 1u) * 16u)) & 65535u) ? 1u : 0u;
+        } else {
+            v = sylva_kd_box_float(SYLVA_PASS_BUF(alphas), p, uintBitsToFloat(SYLVA_LOAD(voxels, i)));
+        }
+        if (v == 1u) m = m | (1u << k);
+        if (v == 2u) m = m | 256u;
+    }
+    return m;
 }
 
 /// The block word from the three OR-reduced masks, the count and the bad flag.
@@ -140,6 +189,12 @@ SYLVA_FN uint sylva_kd_box_word(uint mx, uint my, uint mz, uint count, bool bad)
 
 /// The block word of block `b` (block coordinates; its voxels must lie in the slab).
 SYLVA_FN uint sylva_kd_box_block(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(alphas), SylvaKdBoxParams p, uvec3 b) {
+    uvec4 lut_lo = uvec4(0u);
+    uvec4 lut_hi = uvec4(0u);
+    if (p.source == SYLVA_KD_BOX_SOURCE_U8) {
+        lut_lo = uvec4(SYLVA_LOAD(lut, 0u), SYLVA_LOAD(lut, 1u), SYLVA_LOAD(lut, 2u), SYLVA_LOAD(lut, 3u));
+        lut_hi = uvec4(SYLVA_LOAD(lut, 4u), SYLVA_LOAD(lut, 5u), SYLVA_LOAD(lut, 6u), SYLVA_LOAD(lut, 7u));
+    }
     uvec3 base = uvec3(b.x * 8u, b.y * 8u, b.z * 8u);
     uvec3 n = uvec3(min(8u, p.dims.x - base.x), min(8u, p.dims.y - base.y), min(8u, p.dims.z - base.z));
     uint mx = 0u;
@@ -149,13 +204,11 @@ SYLVA_FN uint sylva_kd_box_block(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(al
     bool bad = false;
     for (uint z = 0u; z < n.z; z++) {
         for (uint y = 0u; y < n.y; y++) {
-            uint row = base.x + p.dims.x * (base.y + y + p.dims.y * (base.z + z - p.slab_z0));
-            uint m = 0u;
-            for (uint x = 0u; x < n.x; x++) {
-                uint v = sylva_kd_box_voxel(SYLVA_PASS_BUF(voxels), SYLVA_PASS_BUF(lut), SYLVA_PASS_BUF(alphas), p, row + x);
-                if (v == 2u) bad = true;
-                if (v == 1u) m = m | (1u << x);
-            }
+            uint at = base.x + p.dims.x * (base.y + y + p.dims.y * (base.z + z - p.slab_z0));
+            uint r = sylva_kd_box_row(SYLVA_PASS_BUF(voxels), SYLVA_PASS_BUF(lut), SYLVA_PASS_BUF(alphas), p, lut_lo,
+                                      lut_hi, at, n.x);
+            uint m = r & 255u;
+            if (r > 255u) bad = true;
             if (m != 0u) {
                 mx = mx | m;
                 my = my | (1u << y);

@@ -80,8 +80,7 @@ public:
                                                             : ctx.max_storage_buffer_range())),
           blocks_(kdtree::block_counts(s.dims)),
           out_(ctx, checked_block_bytes(ctx, blocks_)),
-          params_(ctx, SYLVA_KD_BOX_PARAM_WORDS * 4),
-          kernel_(ctx, spirv::kd_local_boxes, 5, 3 * 4) {
+          params_(ctx, SYLVA_KD_BOX_PARAM_WORDS * 4) {
         for (std::uint32_t bz0 = 0; bz0 < blocks_.z; bz0 += layers_) {
             std::size_t z0 = std::size_t{bz0} * 8u, z1 = std::min<std::size_t>(s.dims.z, (std::size_t{bz0} + layers_) * 8u);
             slabs_.emplace_back(ctx, (z1 - z0) * s.slice_bytes());
@@ -101,7 +100,8 @@ public:
         upload_classifier(c);
         timings_.upload_ms = detail::kd_ms_since(t0);
         t0 = std::chrono::steady_clock::now();
-        for (std::size_t i = 0; i < slabs_.size(); ++i) timings_.device_ms += dispatch_slab(i);
+        Kernel& k = kernel(c.classify);
+        for (std::size_t i = 0; i < slabs_.size(); ++i) timings_.device_ms += dispatch_slab(k, i);
         timings_.dispatch_ms = detail::kd_ms_since(t0);
         t0 = std::chrono::steady_clock::now();
         out.resize(std::size_t{blocks_.x} * blocks_.y * blocks_.z);
@@ -165,14 +165,24 @@ private:
         if (!words.empty()) b->upload(words);
     }
 
-    double dispatch_slab(std::size_t i) {
+    /// The kernel specialised for this source and classification, built on first use and kept
+    /// (lavapipe compiles a pipeline on its first dispatch).
+    Kernel& kernel(std::uint32_t classify) {
+        if (classify > SYLVA_KD_BOX_CLASSIFY_ALPHA) throw Error("vk::LocalBoxPass: unknown classification");
+        std::optional<Kernel>& k = kernels_[classify];
+        std::array<std::uint32_t, 2> constants{source_.source, classify};
+        if (!k) k.emplace(*ctx_, spirv::kd_local_boxes, 5, 3 * 4, constants);
+        return *k;
+    }
+
+    double dispatch_slab(Kernel& kernel, std::size_t i) {
         std::uint32_t first = static_cast<std::uint32_t>(i) * layers_;
         std::uint32_t layers = std::min(layers_, blocks_.z - first);
         struct Push {
             std::uint32_t slab_z0, first_layer, layers;
         } push{first * 8u, first, layers};
         std::array<Buffer*, 5> bind{&slabs_[i], &*lut_, &*alphas_, &params_, &out_};
-        return ctx_->dispatch(kernel_, bind, &push, sizeof push,
+        return ctx_->dispatch(kernel, bind, &push, sizeof push,
                               groups_for(std::size_t{blocks_.x} * blocks_.y * layers, 64));
     }
 
@@ -184,7 +194,7 @@ private:
     Buffer out_;
     Buffer params_;
     std::optional<Buffer> lut_, alphas_;
-    Kernel kernel_;
+    std::array<std::optional<Kernel>, 3> kernels_;
     kdtree::BoxClassifier classifier_;
     kdtree::BlockOrder order_;
     std::vector<std::uint32_t> words_;
