@@ -37,6 +37,11 @@ kdtree::Tree build_tree(const volume::Occupancy& occ, Builder b, const kdtree::C
 
 const char* name(Builder b) { return b == Builder::Vidal ? "vidal" : "binned"; }
 
+/// The ESS occupancy of `g` under the TF words `tf` (segment codes, then the classifier).
+volume::Occupancy occupancy_for(const volume::DensityGrid& g, const std::vector<std::uint32_t>& tf, ThreadPool& pool) {
+    return ess_occupancy(ess_codes(g, static_cast<std::uint32_t>(tf.size()), pool), ess_classifier(tf), pool);
+}
+
 /// Number of pixels whose RGBA differ in any bit.
 std::size_t bitwise_differing(const Frame& a, const Frame& b) {
     std::size_t n = 0;
@@ -86,15 +91,14 @@ VolumeRenderParams params(const volume::DensityGrid& g, vec3 from, std::uint32_t
 double check_exact(const volume::DensityGrid& g, const VolumeRenderParams& p, ThreadPool& pool,
                    double min_alpha_sum) {
     GridWords gw = GridWords::from(g);
-    NeighbourhoodRanges ranges = neighbourhood_ranges(g, pool);
-    EssOccupancy occ = ess_occupancy(ranges, p.tf, pool);
+    volume::Occupancy occ = occupancy_for(g, p.tf, pool);
     Frame ref = render_dvr_cpu(gw, p, pool);
-    INFO("occupied " << occ.occupied << " of " << g.values.size() << " voxels");
+    INFO("occupied " << occ.count() << " of " << g.values.size() << " voxels");
     CHECK(summed_alpha(ref) > min_alpha_sum);  // the images are not trivially empty
     double ratio = 0.0;
     for (Builder b : {Builder::Vidal, Builder::Binned}) {
         for (bool deep : {false, true}) {
-            kdtree::Tree t = build_tree(occ.occupancy, b, deep ? kdtree::Config::deep() : kdtree::Config::shallow(), pool);
+            kdtree::Tree t = build_tree(occ, b, deep ? kdtree::Config::deep() : kdtree::Config::shallow(), pool);
             std::vector<std::uint32_t> words = kdtree::encode(t);
             Frame ess = render_kd_dvr_cpu(gw, words, p, pool);
             ImageDifference d = compare_frames(ref, ess);
@@ -153,56 +157,68 @@ TEST_CASE("ess dvr: the occupancy holds every voxel whose neighbourhood can be v
     volume::Dims dims{13, 9, 11};
     volume::DensityGrid g{dims, vec3(1.0f), std::vector<float>(volume::voxel_count(dims))};
     for (float& v : g.values) v = u(rng) < 0.97f ? u(rng) * 0.4f : u(rng) * 1.2f - 0.1f;  // also outside [0, 1]
-    NeighbourhoodRanges r = neighbourhood_ranges(g, pool);
-    std::vector<std::uint32_t> tf = band_tf(0.41f, 0.47f, 0.5f);
-    auto texel_alpha = [&](std::size_t i) { return double(tf[i] >> 24) / 255.0; };
-    // Independent: alpha of the piecewise-linear table is > 0 somewhere in [a, b] iff it is at a
-    // or b, or at an entry position strictly inside.
-    auto alpha_at = [&](double d) {
-        d = std::clamp(d, 0.0, 1.0) * 255.0;
-        std::size_t i = std::min<std::size_t>(std::size_t(d), 255), j = std::min<std::size_t>(i + 1, 255);
-        return texel_alpha(i) + (texel_alpha(j) - texel_alpha(i)) * (d - double(i));
-    };
-    auto visible = [&](double a, double b) {
-        if (alpha_at(a) > 0.0 || alpha_at(b) > 0.0) return true;
-        for (std::size_t i = 0; i < 256; ++i)
-            if (double(i) / 255.0 > a && double(i) / 255.0 < b && texel_alpha(i) > 0.0) return true;
-        return false;
-    };
-    volume::Occupancy mask{dims, vec3(1.0f), std::vector<std::uint8_t>(g.values.size())};
-    VisibleDensities vis = visible_densities(tf);
-    std::size_t visible_count = 0;
-    for (std::uint32_t z = 0; z < dims.z; ++z)
-        for (std::uint32_t y = 0; y < dims.y; ++y)
-            for (std::uint32_t x = 0; x < dims.x; ++x) {
-                double lo = 1e9, hi = -1e9;
-                for (int dz = -1; dz <= 1; ++dz)
-                    for (int dy = -1; dy <= 1; ++dy)
-                        for (int dx = -1; dx <= 1; ++dx) {
-                            double v = std::clamp(double(g.clamped(std::int64_t{x} + dx, std::int64_t{y} + dy, std::int64_t{z} + dz)), 0.0, 1.0);
-                            lo = std::min(lo, v);
-                            hi = std::max(hi, v);
-                        }
-                std::size_t i = volume::voxel_index(dims, x, y, z);
-                REQUIRE(r.lo[i] == std::uint16_t(std::floor(lo * 65535.0)));
-                REQUIRE(r.hi[i] == std::uint16_t(std::ceil(hi * 65535.0)));
-                bool ours = vis.any(r.lo[i], r.hi[i]);
-                if (visible(lo, hi)) REQUIRE(ours);                    // conservative
-                if (ours) REQUIRE(visible(lo - 1e-4, hi + 1e-4));      // and not much more
-                mask.voxels[i] = ours ? 1u : 0u;
-                visible_count += ours;
-            }
-    CHECK(visible_count > 20);
-    CHECK(visible_count < g.values.size() - 20);
-    EssOccupancy occ = ess_occupancy(r, std::span<const std::uint32_t>(tf), pool);
-    CHECK(occ.occupied == visible_count);
-    CHECK(occ.occupancy.voxels == mask.voxels);
-    // Threshold classification: neighbourhood maximum reaching the threshold.
-    VisibleDensities above = visible_at_or_above(0.5f);
-    for (std::size_t i = 0; i < r.lo.size(); ++i) {
-        if (r.hi[i] >= 32768u) REQUIRE(above.any(r.lo[i], r.hi[i]));
-        if (r.hi[i] < 32700u) REQUIRE(!above.any(r.lo[i], r.hi[i]));
+    for (std::size_t n : {std::size_t{256}, std::size_t{1024}}) {
+        volume::TransferFunction band({{0.0f, vec4(0.0f)}, {0.41f, vec4(0.0f)}, {0.44f, vec4(0.8f, 0.6f, 0.2f, 0.5f)},
+                                       {0.47f, vec4(0.0f)}, {1.0f, vec4(0.0f)}}, n);
+        std::vector<std::uint32_t> tf = band.packed_rgba8();
+        EssCodes codes = ess_codes(g, static_cast<std::uint32_t>(n), pool);
+        EssClassifier cls = ess_classifier(tf);
+        const double last = double(n - 1);
+        auto texel_alpha = [&](std::size_t i) { return double(tf[i] >> 24) / 255.0; };
+        // Independent: the piecewise-linear table's alpha is > 0 somewhere in [a, b] iff it is at
+        // a or at b, or at an entry position strictly inside.
+        auto alpha_at = [&](double d) {
+            d = std::clamp(d, 0.0, 1.0) * last;
+            std::size_t i = std::min<std::size_t>(std::size_t(d), n - 1), j = std::min<std::size_t>(i + 1, n - 1);
+            return texel_alpha(i) + (texel_alpha(j) - texel_alpha(i)) * (d - double(i));
+        };
+        auto visible = [&](double a, double b) {
+            if (alpha_at(a) > 0.0 || alpha_at(b) > 0.0) return true;
+            for (std::size_t i = 0; i < n; ++i)
+                if (double(i) / last > a && double(i) / last < b && texel_alpha(i) > 0.0) return true;
+            return false;
+        };
+        auto bucket = [&](double d) { return std::size_t(std::floor(std::clamp(d, 0.0, 1.0) * last)) * 256 / n; };
+        double slack = (double(n / 256) + 1.0) / last + 1e-5;  // a bucket is n / 256 segments wide
+        volume::Occupancy occ = ess_occupancy(codes, cls, pool);
+        std::size_t visible_count = 0;
+        for (std::uint32_t z = 0; z < dims.z; ++z)
+            for (std::uint32_t y = 0; y < dims.y; ++y)
+                for (std::uint32_t x = 0; x < dims.x; ++x) {
+                    double lo = 1e9, hi = -1e9;
+                    for (int dz = -1; dz <= 1; ++dz)
+                        for (int dy = -1; dy <= 1; ++dy)
+                            for (int dx = -1; dx <= 1; ++dx) {
+                                double v = g.clamped(std::int64_t{x} + dx, std::int64_t{y} + dy, std::int64_t{z} + dz);
+                                lo = std::min(lo, v);
+                                hi = std::max(hi, v);
+                            }
+                    std::size_t i = volume::voxel_index(dims, x, y, z);
+                    std::uint32_t code = ess_code(codes, i);
+                    INFO(n << " entries, voxel " << x << "," << y << "," << z << ": range " << lo << " .. " << hi
+                           << ", code " << code);
+                    REQUIRE((code & 255u) <= bucket(lo));
+                    REQUIRE((code & 255u) >= bucket(lo - 1e-5));
+                    REQUIRE((code >> 8) >= bucket(hi));
+                    REQUIRE((code >> 8) <= bucket(hi + 1e-5));
+                    bool ours = cls.visible(code);
+                    if (visible(lo, hi)) REQUIRE(ours);                // conservative
+                    if (ours) REQUIRE(visible(lo - slack, hi + slack));  // and by at most a bucket
+                    REQUIRE(bool(occ.voxels[i]) == ours);
+                    visible_count += ours;
+                }
+        CHECK(visible_count > 20);
+        CHECK(visible_count < g.values.size() - 20);
     }
+    // Threshold classification (256 entries): buckets whose segment reaches 0.5, i.e. 127 up.
+    EssCodes codes = ess_codes(g, 256, pool);
+    EssClassifier above = ess_threshold_classifier(0.5f, 256);
+    CHECK(above.visible_buckets() == 129);
+    for (std::size_t i = 0; i < g.values.size(); ++i)
+        REQUIRE(above.visible(ess_code(codes, i)) == ((ess_code(codes, i) >> 8) >= 127u));
+    // The classifier as the Rebuilder's per-value table sees it: code / 65535.
+    EssClassifier cls = ess_classifier(volume::TransferFunction::ct_bone_tissue().packed_rgba8());
+    for (std::uint32_t code = 0; code < 65536; code += 7) REQUIRE(cls(float(code) / 65535.0f) == cls.visible(code));
 }
 
 TEST_CASE("ess dvr: classifying voxels by their own density and dilating misses a visible band", "[kd_dvr]") {
@@ -241,9 +257,9 @@ TEST_CASE("ess dvr: a lattice sample on a face shared by two leaves is taken onc
     volume::DensityGrid g = volume::constant_box(dims, 0.5f);
     GridWords gw = GridWords::from(g);
     std::vector<std::uint32_t> tf(256, rgba8(0.6f, 0.5f, 0.4f, 0.01f));
-    EssOccupancy occ = ess_occupancy(neighbourhood_ranges(g, pool), std::span<const std::uint32_t>(tf), pool);
-    REQUIRE(occ.occupied == g.values.size());
-    kdtree::Tree t = kdtree::build_vidal(occ.occupancy, kdtree::Config::deep());
+    volume::Occupancy occ = occupancy_for(g, tf, pool);
+    REQUIRE(occ.count() == g.values.size());
+    kdtree::Tree t = kdtree::build_vidal(occ, kdtree::Config::deep());
     REQUIRE(t.leaves.size() >= 64);
     std::vector<std::uint32_t> words = kdtree::encode(t);
 
@@ -291,6 +307,43 @@ TEST_CASE("ess dvr: a lattice sample on a face shared by two leaves is taken onc
     CHECK(on_face_rays >= 24);  // axis rays crossing >= 3 shared faces at lattice points
 }
 
+TEST_CASE("ess dvr: EssRebuilder (kdtree::Rebuilder over segment codes) gives the fresh trees after TF changes",
+          "[kd_dvr]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = volume::sparse_nbody({40, 44, 36}, 6u);
+    GridWords gw = GridWords::from(g);
+    std::vector<std::pair<std::string, std::vector<std::uint32_t>>> tfs = {
+        {"ct", volume::TransferFunction::ct_bone_tissue().packed_rgba8()},
+        {"band", band_tf(0.3f, 0.36f, 0.4f)},
+        {"ramp, 1024 entries", volume::TransferFunction::ramp(0.2f, 0.6f, vec4(1.0f, 0.8f, 0.5f, 0.6f), 1024).packed_rgba8()},
+        {"nothing visible", std::vector<std::uint32_t>(256, rgba8(1.0f, 1.0f, 1.0f, 0.0f))},
+        {"ct again", volume::TransferFunction::ct_bone_tissue().packed_rgba8()}};
+    for (kdtree::Config cfg : {kdtree::Config::shallow(), kdtree::Config::deep(), kdtree::Config::deep().binned()}) {
+        EssRebuilder<ThreadPool> ess(g, cfg, pool);
+        std::uint32_t entries = 0;
+        for (const auto& [tf_name, tf] : tfs) {
+            INFO(tf_name << ", " << (cfg.planes == kdtree::Planes::Binned ? "binned" : "vidal") << " max depth "
+                         << cfg.max_depth);
+            kdtree::Tree t = ess.rebuild(tf);
+            volume::Occupancy occ = occupancy_for(g, tf, pool);
+            kdtree::Tree fresh = cfg.planes == kdtree::Planes::Binned ? kdtree::build_binned(occ, cfg, pool)
+                                                                      : kdtree::build_vidal(occ, cfg);
+            CHECK(t.nodes == fresh.nodes);
+            CHECK(t.stats.occupied == occ.count());
+            CHECK((ess.codes_ms() > 0.0) == (tf.size() != entries));  // codes only for a new entry count
+            entries = static_cast<std::uint32_t>(tf.size());
+            if (tf_name == "nothing visible") {
+                CHECK(t.nodes.empty());
+                continue;
+            }
+            VolumeRenderParams p = params(g, vec3(0.3f, 0.6f, 1.0f), 40, tf);
+            Frame ref = render_dvr_cpu(gw, p, pool), ess_img = render_kd_dvr_cpu(gw, kdtree::encode(t), p, pool);
+            CHECK(summed_alpha(ref) > 1.0);
+            CHECK(bitwise_differing(ref, ess_img) == 0);
+        }
+    }
+}
+
 TEST_CASE("ess dvr: aneurism, shallow and deep trees of both builders, images equal the marcher's",
           "[kd_dvr][data]") {
     std::string path = kdtest::data_file("aneurism_256x256x256_uint8.raw");
@@ -308,8 +361,7 @@ TEST_CASE("ess dvr: trees that do not fit the grid are refused, corrupt trees ar
     volume::DensityGrid g = volume::sparse_nbody({24, 24, 24}, 2u);
     GridWords gw = GridWords::from(g);
     VolumeRenderParams p = params(g, vec3(0.4f, 0.3f, 1.0f), 16, volume::TransferFunction::ct_bone_tissue().packed_rgba8());
-    EssOccupancy occ = ess_occupancy(neighbourhood_ranges(g, pool), p.tf, pool);
-    kdtree::Tree t = kdtree::build_vidal(occ.occupancy, kdtree::Config::deep());
+    kdtree::Tree t = kdtree::build_vidal(occupancy_for(g, p.tf, pool), kdtree::Config::deep());
     std::vector<std::uint32_t> words = kdtree::encode(t);
     CHECK_NOTHROW(render_kd_dvr_cpu(gw, words, p, pool));
 
@@ -323,7 +375,9 @@ TEST_CASE("ess dvr: trees that do not fit the grid are refused, corrupt trees ar
     CHECK_THROWS_WITH(render_kd_dvr_cpu(gw, kdtree::encode(stretched), p, pool), Catch::Contains("spacing"));
     std::vector<std::uint32_t> junk(64, 7u);
     CHECK_THROWS_WITH(render_kd_dvr_cpu(gw, junk, p, pool), Catch::Contains("not a valid encoded kd-tree"));
-    CHECK_THROWS_WITH(visible_densities(std::vector<std::uint32_t>{5u}), Catch::Contains("at least 2 entries"));
+    CHECK_THROWS_WITH(ess_classifier(std::vector<std::uint32_t>{5u}), Catch::Contains("2 to 2^24 entries"));
+    CHECK_THROWS_WITH(ess_occupancy(ess_codes(g, 256, pool), ess_classifier(std::vector<std::uint32_t>(300, 0u)), pool),
+                      Catch::Contains("codes made for a TF of 256 entries"));
 
     // A child link pointing back at its parent: the rays that reach it report 0xFFFFFFFF steps.
     REQUIRE(t.nodes.size() > 3);

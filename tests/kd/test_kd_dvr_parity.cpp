@@ -114,11 +114,12 @@ TEST_CASE("ESS DVR on Vulkan: leaf sequences and images match the host", "[parit
     for (const Scene& s : scenes) {
         GridWords gw = GridWords::from(s.grid);
         vk::DeviceGrid dgrid(ctx, gw, spanning_shift(gw.words.size()));  // all four grid parts used
-        EssOccupancy occ = ess_occupancy(neighbourhood_ranges(s.grid, pool), s.tf, pool);
+        volume::Occupancy occ =
+            ess_occupancy(ess_codes(s.grid, static_cast<std::uint32_t>(s.tf.size()), pool), ess_classifier(s.tf), pool);
         for (int variant = 0; variant < 4; ++variant) {
             bool deep = variant % 2 == 1, binned = variant >= 2;
             kdtree::Config cfg = deep ? kdtree::Config::deep() : kdtree::Config::shallow();
-            kdtree::Tree t = binned ? kdtree::build_binned(occ.occupancy, cfg, pool) : kdtree::build_vidal(occ.occupancy, cfg);
+            kdtree::Tree t = binned ? kdtree::build_binned(occ, cfg, pool) : kdtree::build_vidal(occ, cfg);
             std::vector<std::uint32_t> words = kdtree::encode(t);
             vk::DeviceKdTree dkd(ctx, words, variant == 1 ? spanning_shift(words.size()) : 0);
             for (vec3 from : {vec3(0.5f, 0.35f, 1.0f), vec3(-0.8f, -0.2f, -0.4f)}) {
@@ -176,8 +177,8 @@ TEST_CASE("ESS DVR on Vulkan: trees that do not fit the grid are refused", "[par
     ThreadPool pool(2);
     volume::DensityGrid g = volume::sparse_nbody({24, 24, 24}, 2u), other = volume::sparse_nbody({24, 24, 20}, 2u);
     std::vector<std::uint32_t> tf = volume::TransferFunction::ct_bone_tissue().packed_rgba8();
-    std::vector<std::uint32_t> words = kdtree::encode(
-        kdtree::build_vidal(ess_occupancy(neighbourhood_ranges(g, pool), tf, pool).occupancy, kdtree::Config::deep()));
+    EssRebuilder<ThreadPool> ess(g, kdtree::Config::deep(), pool);
+    std::vector<std::uint32_t> words = kdtree::encode(ess.rebuild(tf));
     vk::DeviceGrid dother(ctx, GridWords::from(other));
     vk::DeviceKdTree dkd(ctx, words);
     VolumeRenderParams p;

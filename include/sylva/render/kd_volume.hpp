@@ -4,27 +4,41 @@
 //
 //   ThreadPool pool;
 //   GridWords grid = GridWords::from(density);
-//   NeighbourhoodRanges ranges = neighbourhood_ranges(density, pool);  // once per volume
-//   EssOccupancy occ = ess_occupancy(ranges, p.tf, pool);              // per transfer function
-//   kdtree::Tree tree = kdtree::build_vidal(occ.occupancy, kdtree::Config::deep());
+//   EssRebuilder ess(density, kdtree::Config::deep(), pool);   // once per volume
+//   kdtree::Tree tree = ess.rebuild(p.tf);                      // per transfer function
 //   std::vector<std::uint32_t> words = kdtree::encode(tree);
-//   Frame ess = render_kd_dvr_cpu(grid, words, p, pool);   // == render_dvr_cpu(grid, p, pool)
+//   Frame img = render_kd_dvr_cpu(grid, words, p, pool);        // == render_dvr_cpu(grid, p, pool)
 //
 // The occupancy (see the reasoning in sylva/shared/kd_dvr.h): a voxel is occupied when the
 // transfer function is visible somewhere in the density range of its 3x3x3 neighbourhood (the
 // voxels a trilinear sample in its cell reads). That covers the half-voxel reach of trilinear
 // reconstruction, is exact for any TF, and keeps every visible sample half a voxel inside the
-// occupied cells, so no further dilation is needed. The neighbourhood ranges do not
-// depend on the transfer function: compute them once, and reclassify in one table lookup per
-// voxel when the transfer function changes.
+// occupied cells, so no further dilation is needed.
+//
+// How it is computed. The TF lookup maps a density d to the table segment
+// s(d) = floor(clamp01(d) (N - 1)) (sylva/shared/tf.h; monotone in d), and a density can be
+// visible only in a segment with an entry of alpha > 0 at either end. So each voxel gets the
+// segment range [s(min - eps), s(max + eps)] of its neighbourhood (eps = 2^-20 absorbs the
+// rounding of the three trilinear lerps), stored as one uint16 "segment code": the segments
+// grouped into 256 buckets (bucket = s 256 / N; for N <= 256 one segment a bucket),
+// bits 0-7 the first bucket and bits 8-15 the last. The codes depend only on the volume and the
+// TF's entry count, not on its colours or opacities: a transfer-function change reclassifies
+// the codes through a 65536-entry table, which is exactly what kdtree::Rebuilder (rebuild.hpp)
+// does for a uint16 volume, so EssRebuilder hands it the codes as a uint16 volume and reuses
+// its partial SVTs / Morton block order and local-box arrays across rebuilds (and
+// vk::KdRebuilder can compute the binned builder's local boxes on the device).
 #ifndef SYLVA_RENDER_KD_VOLUME_HPP
 #define SYLVA_RENDER_KD_VOLUME_HPP
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -32,6 +46,7 @@
 
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
+#include "sylva/kdtree/rebuild.hpp"
 #include "sylva/render/volume.hpp"
 #include "sylva/shared/kd_dvr.h"
 #include "sylva/volume/grid.hpp"
@@ -39,174 +54,241 @@
 
 namespace sylva {
 
-/// Per voxel, the density range of its 3x3x3 neighbourhood (clamped at the grid's edges) as
-/// unorm16 rounded outwards: lo = floor(min * 65535), hi = ceil(max * 65535), densities
-/// clamped to [0, 1] first (the TF lookup clamps the same way, so this loses nothing).
-struct NeighbourhoodRanges {
-    volume::Dims dims{0};
-    vec3 spacing{1.0f};
-    std::vector<std::uint16_t> lo, hi;
+/// Buckets of TF segments a segment code distinguishes (8 bits each end).
+inline constexpr std::uint32_t kEssBuckets = 256;
+
+/// The segment codes of a density grid for a TF of `entries` entries, as a uint16 volume
+/// (range [0, 65535], so a classifier sees code / 65535): bits 0-7 the first, bits 8-15 the
+/// last bucket of TF segments the voxel's 3x3x3 neighbourhood can reach (see above).
+struct EssCodes {
+    volume::Volume volume;
+    std::uint32_t entries = 0;  ///< TF entry count N the codes were made for
+    double ms = 0.0;            ///< time to compute them
 };
 
-/// Which quantised density intervals are visible: entry q says whether a density in
-/// [q / 65535, (q + 1) / 65535] (widened by 2^-20 for rounding) can be visible; stored as a
-/// prefix count over q, so a range [a, b] is tested in two loads.
-struct VisibleDensities {
-    std::vector<std::uint32_t> prefix;  ///< 65537 entries: prefix[q] = visible intervals below q
-
-    /// True when some density in [a / 65535, b / 65535] is visible (a <= b).
-    [[nodiscard]] bool any(std::uint32_t a, std::uint32_t b) const {
-        std::uint32_t last = b > a ? b - 1 : a;
-        return prefix[last + 1] != prefix[a];
+/// Which codes are visible under one transfer function (or threshold): a prefix count over the
+/// 256 buckets. A VoxelClassifier over the codes' normalised values (code / 65535).
+class EssClassifier {
+public:
+    /// From per-segment visibility, one flag per entry s of a TF of N entries: segment s holds
+    /// the densities the lookup maps to entries s and s + 1 (segment N - 1: density 1 alone).
+    /// Bucket b is visible when one of its segments is.
+    EssClassifier(const std::vector<std::uint8_t>& segment_visible, std::uint32_t entries) : entries_(entries) {
+        if (entries < 2 || segment_visible.size() != entries)
+            throw Error("kd-dvr: segment visibility for " + std::to_string(segment_visible.size()) + " segments, TF of " +
+                        std::to_string(entries) + " entries");
+        std::array<std::uint8_t, kEssBuckets> bucket{};
+        for (std::uint32_t s = 0; s < entries; ++s)
+            if (segment_visible[s]) bucket[bucket_of(s, entries)] = 1u;
+        for (std::uint32_t b = 0; b < kEssBuckets; ++b) prefix_[b + 1] = prefix_[b] + bucket[b];
     }
-};
+    /// Bucket of segment s for a TF of n entries.
+    static std::uint32_t bucket_of(std::uint32_t s, std::uint32_t n) {
+        return static_cast<std::uint32_t>(std::uint64_t{s} * kEssBuckets / n);
+    }
+    /// True when the code's bucket range holds a visible bucket.
+    [[nodiscard]] bool visible(std::uint32_t code) const {
+        std::uint32_t lo = code & 255u, hi = (code >> 8) & 255u;
+        return hi >= lo && prefix_[hi + 1] != prefix_[lo];
+    }
+    /// VoxelClassifier: the normalised value of a code voxel.
+    [[nodiscard]] bool operator()(float normalised) const {
+        return visible(static_cast<std::uint32_t>(std::lround(std::clamp(normalised, 0.0f, 1.0f) * 65535.0f)));
+    }
+    [[nodiscard]] std::uint32_t entries() const { return entries_; }
+    /// Number of visible buckets (0: nothing can be seen).
+    [[nodiscard]] std::uint32_t visible_buckets() const { return prefix_[kEssBuckets]; }
 
-/// What ess_occupancy produced.
-struct EssOccupancy {
-    volume::Occupancy occupancy;  ///< the occupancy to build the kd-tree on
-    std::uint64_t occupied = 0;   ///< its occupied voxels
-    double ms = 0.0;              ///< classification time (one table lookup per voxel)
+private:
+    std::array<std::uint32_t, kEssBuckets + 1> prefix_{};
+    std::uint32_t entries_;
 };
+static_assert(volume::VoxelClassifier<EssClassifier>);
+
+/// The transfer function `tf` (packed RGBA8 words, the renderer's table; sylva/shared/tf.h)
+/// as an EssClassifier: segment s is visible when entry s or s + 1 has alpha > 0.
+inline EssClassifier ess_classifier(std::span<const std::uint32_t> tf) {
+    if (tf.size() < 2 || tf.size() > (std::size_t{1} << 24))
+        throw Error("kd-dvr: the transfer function needs 2 to 2^24 entries, got " + std::to_string(tf.size()));
+    auto n = static_cast<std::uint32_t>(tf.size());
+    std::vector<std::uint8_t> vis(n);
+    for (std::uint32_t s = 0; s < n; ++s) vis[s] = ((tf[s] >> 24) != 0u || (tf[std::min(s + 1, n - 1)] >> 24) != 0u) ? 1u : 0u;
+    return EssClassifier(vis, n);
+}
+
+/// Density-threshold classification over segments of a TF of `entries` entries: segment s is
+/// visible when its upper end (s + 1) / (N - 1) reaches `threshold`, i.e. when it holds
+/// densities >= threshold (the BIH's voxel elements, Kinkelin section 6.1). The image equals
+/// the marcher's only when the TF is transparent below the threshold.
+inline EssClassifier ess_threshold_classifier(float threshold, std::uint32_t entries) {
+    if (!std::isfinite(threshold)) throw Error("kd-dvr: the density threshold is not finite");
+    if (entries < 2) throw Error("kd-dvr: the transfer function needs at least 2 entries");
+    std::vector<std::uint8_t> vis(entries);
+    for (std::uint32_t s = 0; s < entries; ++s)
+        vis[s] = static_cast<float>(std::min(s + 1, entries - 1)) / static_cast<float>(entries - 1) >= threshold ? 1u : 0u;
+    return EssClassifier(vis, entries);
+}
 
 namespace detail {
 
-inline double kd_ms_since(std::chrono::steady_clock::time_point t0) {
+inline double ess_ms_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// Element-wise min of lo and max of hi over three neighbouring lines a, b, c (b the centre).
-inline void range_combine(const std::uint16_t* alo, const std::uint16_t* blo, const std::uint16_t* clo,
-                          const std::uint16_t* ahi, const std::uint16_t* bhi, const std::uint16_t* chi,
-                          std::uint16_t* olo, std::uint16_t* ohi, std::size_t n) {
-    for (std::size_t i = 0; i < n; ++i) {
-        olo[i] = std::min(std::min(alo[i], blo[i]), clo[i]);
-        ohi[i] = std::max(std::max(ahi[i], bhi[i]), chi[i]);
-    }
+/// Bucket of the TF segment of density d (the shader's arithmetic), n entries.
+inline std::uint8_t ess_bucket(float d, std::uint32_t n) {
+    float x = shared::sylva_tf_clamp01(d) * static_cast<float>(n - 1);
+    std::uint32_t s = std::min(static_cast<std::uint32_t>(x), n - 1);
+    return static_cast<std::uint8_t>(EssClassifier::bucket_of(s, n));
 }
 
-/// One pass of the separable 3-wide min/max filter along y (stride = one row) or z (one slice):
-/// `lines` lines of `n` entries, `count` of them along the axis; reads src, writes dst.
+/// One pass of a 3-wide min (lo) / max (hi) filter over `count` lines of `n` entries along an
+/// axis whose neighbours are `n` entries apart, in `outer` independent blocks; src -> dst.
 template <Executor X>
-void range_pass(NeighbourhoodRanges& src, NeighbourhoodRanges& dst, std::size_t n, std::size_t count,
-                std::size_t outer, X& exec) {
-    exec.parallel_for(0, outer * count, 1, [&](std::size_t lo, std::size_t hi) {
-        for (std::size_t j = lo; j < hi; ++j) {
-            std::size_t o = j / count, i = j % count;
-            std::size_t a = i > 0 ? i - 1 : i, c = i + 1 < count ? i + 1 : i;
-            std::size_t base = o * count * n;
-            range_combine(&src.lo[base + a * n], &src.lo[base + i * n], &src.lo[base + c * n], &src.hi[base + a * n],
-                          &src.hi[base + i * n], &src.hi[base + c * n], &dst.lo[base + i * n], &dst.hi[base + i * n], n);
+void ess_filter_pass(const std::vector<std::uint8_t>& slo, const std::vector<std::uint8_t>& shi,
+                     std::vector<std::uint8_t>& dlo, std::vector<std::uint8_t>& dhi, std::size_t n, std::size_t count,
+                     std::size_t outer, X& exec) {
+    exec.parallel_for(0, outer * count, 1, [&](std::size_t j0, std::size_t j1) {
+        for (std::size_t j = j0; j < j1; ++j) {
+            std::size_t o = j / count, i = j % count, base = o * count * n;
+            std::size_t a = base + (i > 0 ? i - 1 : i) * n, b = base + i * n, c = base + (i + 1 < count ? i + 1 : i) * n;
+            for (std::size_t k = 0; k < n; ++k) {
+                dlo[b + k] = std::min(std::min(slo[a + k], slo[b + k]), slo[c + k]);
+                dhi[b + k] = std::max(std::max(shi[a + k], shi[b + k]), shi[c + k]);
+            }
         }
     });
 }
 
-/// Quantises the densities and applies the filter along x (per row).
+/// Per voxel the buckets of d - eps and d + eps, then the 3-wide filter along x, per row.
 template <Executor X>
-void range_rows(const volume::DensityGrid& g, NeighbourhoodRanges& out, X& exec) {
+void ess_rows(const volume::DensityGrid& g, std::uint32_t entries, std::vector<std::uint8_t>& lo,
+              std::vector<std::uint8_t>& hi, X& exec) {
+    constexpr float eps = 1.0f / 1048576.0f;  // 2^-20: above the rounding of three lerps
     std::uint32_t nx = g.dims.x;
     std::size_t rows = std::size_t{g.dims.y} * g.dims.z;
     exec.parallel_for(0, rows, 64, [&](std::size_t r0, std::size_t r1) {
-        std::vector<std::uint16_t> qlo(nx), qhi(nx);
+        std::vector<std::uint8_t> blo(nx), bhi(nx);
         for (std::size_t r = r0; r < r1; ++r) {
             const float* v = &g.values[r * nx];
             for (std::uint32_t x = 0; x < nx; ++x) {
-                float d = std::clamp(v[x], 0.0f, 1.0f) * 65535.0f;
-                qlo[x] = static_cast<std::uint16_t>(std::floor(d));
-                qhi[x] = static_cast<std::uint16_t>(std::ceil(d));
+                blo[x] = ess_bucket(v[x] - eps, entries);
+                bhi[x] = ess_bucket(v[x] + eps, entries);
             }
             for (std::uint32_t x = 0; x < nx; ++x) {
                 std::uint32_t a = x > 0 ? x - 1 : x, c = x + 1 < nx ? x + 1 : x;
-                out.lo[r * nx + x] = std::min(std::min(qlo[a], qlo[x]), qlo[c]);
-                out.hi[r * nx + x] = std::max(std::max(qhi[a], qhi[x]), qhi[c]);
+                lo[r * nx + x] = std::min(std::min(blo[a], blo[x]), blo[c]);
+                hi[r * nx + x] = std::max(std::max(bhi[a], bhi[x]), bhi[c]);
             }
         }
     });
-}
-
-/// Visible-interval table from a per-interval predicate over [dlo, dhi] densities.
-template <class Pred>
-VisibleDensities visible_table(Pred&& visible) {
-    constexpr float eps = 1.0f / 1048576.0f;  // 2^-20: above the rounding of three lerps
-    VisibleDensities v;
-    v.prefix.assign(65537, 0u);
-    for (std::uint32_t q = 0; q < 65536; ++q) {
-        float dlo = static_cast<float>(q) / 65535.0f - eps, dhi = static_cast<float>(q + 1) / 65535.0f + eps;
-        v.prefix[q + 1] = v.prefix[q] + (visible(dlo, dhi) ? 1u : 0u);
-    }
-    return v;
 }
 
 }  // namespace detail
 
-/// The neighbourhood density ranges of `g` (see NeighbourhoodRanges), in parallel. Throws
-/// sylva::Error when the value count does not match the dimensions or a density is NaN.
+/// The segment codes of `g` for a TF of `entries` entries (see EssCodes), in parallel. Throws
+/// sylva::Error when the values do not match the dimensions or one is NaN.
 template <Executor X>
-NeighbourhoodRanges neighbourhood_ranges(const volume::DensityGrid& g, X& exec) {
+EssCodes ess_codes(const volume::DensityGrid& g, std::uint32_t entries, X& exec) {
+    auto t0 = std::chrono::steady_clock::now();
     std::size_t n = volume::voxel_count(g.dims);
     if (g.values.size() != n || n == 0)
         throw Error("kd-dvr: the grid holds " + std::to_string(g.values.size()) + " values for " + std::to_string(n) +
                     " voxels");
+    if (entries < 2) throw Error("kd-dvr: the transfer function needs at least 2 entries");
     for (float v : g.values)
         if (std::isnan(v)) throw Error("kd-dvr: the grid holds a NaN density");
-    NeighbourhoodRanges a{g.dims, g.spacing, std::vector<std::uint16_t>(n), std::vector<std::uint16_t>(n)};
-    NeighbourhoodRanges b{g.dims, g.spacing, std::vector<std::uint16_t>(n), std::vector<std::uint16_t>(n)};
-    detail::range_rows(g, a, exec);
-    detail::range_pass(a, b, g.dims.x, g.dims.y, g.dims.z, exec);                         // along y
-    detail::range_pass(b, a, std::size_t{g.dims.x} * g.dims.y, g.dims.z, 1, exec);      // along z
-    return a;
-}
-
-/// Which density intervals the transfer function `tf` (packed RGBA8 words, the renderer's
-/// table; sylva/shared/tf.h) can make visible: those that reach a table segment with an entry of
-/// alpha > 0 at either end. Segments are found with the shader's own arithmetic
-/// (x = clamp01(d) * (N - 1), floor), which is monotone in d.
-inline VisibleDensities visible_densities(std::span<const std::uint32_t> tf) {
-    if (tf.size() < 2) throw Error("kd-dvr: the transfer function needs at least 2 entries");
-    std::uint32_t last = static_cast<std::uint32_t>(tf.size() - 1);
-    std::vector<std::uint32_t> seg(tf.size() + 1, 0u);  // prefix count of visible segments
-    for (std::uint32_t i = 0; i <= last; ++i) {
-        bool vis = (tf[i] >> 24) != 0u || (tf[std::min(i + 1, last)] >> 24) != 0u;
-        seg[i + 1] = seg[i] + (vis ? 1u : 0u);
-    }
-    auto segment = [last](float d) {
-        float x = shared::sylva_tf_clamp01(d) * static_cast<float>(last);
-        return std::min(static_cast<std::uint32_t>(x), last);
-    };
-    return detail::visible_table([&](float dlo, float dhi) { return seg[segment(dhi) + 1] != seg[segment(dlo)]; });
-}
-
-/// Density-threshold classification: intervals that reach `threshold` (as the BIH's
-/// voxel elements, Kinkelin section 6.1). The image equals the marcher's only when the
-/// transfer function is transparent below the threshold.
-inline VisibleDensities visible_at_or_above(float threshold) {
-    if (!std::isfinite(threshold)) throw Error("kd-dvr: the density threshold is not finite");
-    return detail::visible_table([threshold](float, float dhi) { return dhi >= threshold; });
-}
-
-/// The kd-tree occupancy for empty-space-skipping DVR: voxels whose neighbourhood range is
-/// visible under `vis` (see the top of this header), in parallel.
-template <Executor X>
-EssOccupancy ess_occupancy(const NeighbourhoodRanges& r, const VisibleDensities& vis, X& exec) {
-    auto t0 = std::chrono::steady_clock::now();
-    std::size_t n = r.lo.size();
-    if (r.hi.size() != n || n != volume::voxel_count(r.dims) || vis.prefix.size() != 65537)
-        throw Error("kd-dvr: neighbourhood ranges or visibility table of the wrong size");
-    volume::Occupancy occ{r.dims, r.spacing, std::vector<std::uint8_t>(n)};
-    exec.parallel_for(0, n, std::size_t{1} << 16, [&](std::size_t lo, std::size_t hi) {
-        for (std::size_t i = lo; i < hi; ++i) occ.voxels[i] = vis.any(r.lo[i], r.hi[i]) ? 1u : 0u;
+    std::vector<std::uint8_t> lo(n), hi(n), lo2(n), hi2(n);
+    detail::ess_rows(g, entries, lo, hi, exec);
+    detail::ess_filter_pass(lo, hi, lo2, hi2, g.dims.x, g.dims.y, g.dims.z, exec);                  // along y
+    detail::ess_filter_pass(lo2, hi2, lo, hi, std::size_t{g.dims.x} * g.dims.y, g.dims.z, 1, exec);  // along z
+    EssCodes c;
+    c.entries = entries;
+    c.volume.type = volume::ScalarType::U16;
+    c.volume.dims = g.dims;
+    c.volume.spacing = g.spacing;
+    c.volume.range_lo = 0.0f;
+    c.volume.range_hi = 65535.0f;
+    c.volume.bytes.resize(n * 2);
+    exec.parallel_for(0, n, std::size_t{1} << 16, [&](std::size_t i0, std::size_t i1) {
+        for (std::size_t i = i0; i < i1; ++i) {
+            auto code = static_cast<std::uint16_t>(lo[i] | (hi[i] << 8));
+            std::memcpy(&c.volume.bytes[2 * i], &code, 2);
+        }
     });
-    EssOccupancy out;
-    out.occupied = occ.count();
-    out.occupancy = std::move(occ);
-    out.ms = detail::kd_ms_since(t0);
-    return out;
+    c.ms = detail::ess_ms_since(t0);
+    return c;
 }
 
-/// The same for a transfer function's packed RGBA8 words.
-template <Executor X>
-EssOccupancy ess_occupancy(const NeighbourhoodRanges& r, std::span<const std::uint32_t> tf, X& exec) {
-    return ess_occupancy(r, visible_densities(tf), exec);
+/// The code of voxel i.
+inline std::uint16_t ess_code(const EssCodes& c, std::size_t i) {
+    std::uint16_t code;
+    std::memcpy(&code, &c.volume.bytes[2 * i], 2);
+    return code;
 }
+
+/// The occupancy of `codes` under `cls` (for builders fed directly), in parallel.
+template <Executor X>
+volume::Occupancy ess_occupancy(const EssCodes& codes, const EssClassifier& cls, X& exec) {
+    if (cls.entries() != codes.entries)
+        throw Error("kd-dvr: codes made for a TF of " + std::to_string(codes.entries) + " entries, classifier for " +
+                    std::to_string(cls.entries()));
+    std::size_t n = volume::voxel_count(codes.volume.dims);
+    volume::Occupancy occ{codes.volume.dims, codes.volume.spacing, std::vector<std::uint8_t>(n)};
+    exec.parallel_for(0, n, std::size_t{1} << 16, [&](std::size_t i0, std::size_t i1) {
+        for (std::size_t i = i0; i < i1; ++i) occ.voxels[i] = cls.visible(ess_code(codes, i)) ? 1u : 0u;
+    });
+    return occ;
+}
+
+/// Rebuilds the ESS kd-tree of one density grid when the transfer function changes, through
+/// kdtree::Rebuilder over the segment codes (recomputed only when the TF's entry count
+/// changes). The grid and the executor must outlive it.
+template <Executor X>
+class EssRebuilder {
+public:
+    EssRebuilder(const volume::DensityGrid& g, const kdtree::Config& cfg, X& exec) : grid_(&g), exec_(&exec), cfg_(cfg) {
+        kdtree::detail::check_config(cfg);
+    }
+    EssRebuilder(const EssRebuilder&) = delete;
+    EssRebuilder& operator=(const EssRebuilder&) = delete;
+
+    /// The tree under the transfer function `tf` (packed RGBA8 words, as rendered).
+    kdtree::Tree rebuild(std::span<const std::uint32_t> tf) { return rebuild(ess_classifier(tf)); }
+    /// The tree under any EssClassifier (ess_classifier, ess_threshold_classifier).
+    kdtree::Tree rebuild(const EssClassifier& cls) {
+        codes_ms_ = 0.0;
+        prepare(cls.entries());
+        return rebuilder_->rebuild(cls);
+    }
+    /// The codes the trees are built on (after the first rebuild).
+    [[nodiscard]] const EssCodes& codes() const { return *codes_; }
+    /// Phases of the last rebuild (classify_ms: the 65536-entry table; occupancy_ms: partial
+    /// SVTs or local boxes; split_ms).
+    [[nodiscard]] const kdtree::RebuildTimings& timings() const { return rebuilder_->timings(); }
+    /// Time the last rebuild spent computing segment codes (0 unless the TF's entry count changed).
+    [[nodiscard]] double codes_ms() const { return codes_ms_; }
+    void set_config(const kdtree::Config& cfg) {
+        kdtree::detail::check_config(cfg);
+        cfg_ = cfg;
+        if (rebuilder_) rebuilder_->set_config(cfg);
+    }
+
+private:
+    void prepare(std::uint32_t entries) {
+        if (codes_ && codes_->entries == entries) return;
+        rebuilder_.reset();
+        codes_ = std::make_unique<EssCodes>(ess_codes(*grid_, entries, *exec_));
+        codes_ms_ = codes_->ms;
+        rebuilder_.emplace(codes_->volume, cfg_, *exec_);
+    }
+    const volume::DensityGrid* grid_;
+    X* exec_;
+    kdtree::Config cfg_;
+    std::unique_ptr<EssCodes> codes_;
+    std::optional<kdtree::Rebuilder<X>> rebuilder_;
+    double codes_ms_ = 0.0;
+};
 
 namespace detail {
 
