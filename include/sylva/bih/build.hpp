@@ -61,6 +61,18 @@ struct Config {
     std::size_t parallel_threshold = 4096;
     /// Called with the fraction of elements placed in leaves (0..1), possibly from several threads.
     std::function<void(double)> on_progress;
+
+    /// Settings for trees that serve element queries (bih::first_hit, bih::all_hits with
+    /// LeafRecords) rather than trimmed-leaf rendering: up to 16 elements a leaf, leaves not
+    /// trimmed (Kinkelin 5.1's one-element trimmed leaves cost ~5 nodes an element, and a query
+    /// visits many of them per leaf). Measured with sylva-bench's spheres and rays, 16 was within
+    /// 5 % of the best of 2..64 elements a leaf up to 10^6 spheres; at 10^7, 32 was ~15 % faster.
+    [[nodiscard]] static Config for_queries() {
+        Config c;
+        c.max_leaf_elements = 16;
+        c.trim_leaves = false;
+        return c;
+    }
 };
 
 namespace detail {
