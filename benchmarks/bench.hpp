@@ -29,6 +29,8 @@ struct Options {
     double pass_seconds = -1.0;             ///< --pass-seconds: time cap per pass (0 = none)
     bool quick = false;                     ///< --quick: small sizes and fewer rays
     bool help = false;                      ///< --help
+    /// --cases: which parts run (build and encode always run: the traversals need them)
+    bool run_first = true, run_all = true, run_clustered = true;
 
     /// Time cap of the repeated (interleaved) builds of one case: 20 passes of the slowest.
     [[nodiscard]] double build_budget_ms() const { return pass_seconds > 0.0 ? 20000.0 * pass_seconds : 0.0; }
@@ -121,7 +123,8 @@ std::vector<double> samples(std::size_t runs, double budget_ms, F&& run) {
 
 // ---- records --------------------------------------------------------------------------------
 
-/// One measured number. `peer` (not written to JSON) is the case the table compares it with.
+/// One measured number. `peer` (not written to JSON) is the case the table compares it with;
+/// `config` names the sylva configuration that produced it (written to JSON when set).
 struct Record {
     std::string case_name;
     std::string impl;
@@ -129,12 +132,15 @@ struct Record {
     double value = 0.0;
     std::string unit;
     std::string peer;
+    std::string config;
 };
 
 class Report {
 public:
     void add(std::string case_name, std::string impl, std::string metric, double value, std::string unit,
-             std::string peer = {});
+             std::string peer = {}, std::string config = {});
+    /// Describes a configuration name used in `config` fields (printed under the tables).
+    void describe(const std::string& config, const std::string& text);
     [[nodiscard]] const std::vector<Record>& records() const { return records_; }
     /// Writes all records as one JSON array; throws std::runtime_error when the file fails.
     void write_json(const std::string& path) const;
@@ -148,6 +154,7 @@ private:
     /// True when a non-embree record names `peer`'s case as its peer, for the same metric.
     [[nodiscard]] bool paired(const Record& peer) const;
     std::vector<Record> records_;
+    std::vector<std::pair<std::string, std::string>> configs_;
 };
 
 }  // namespace bench

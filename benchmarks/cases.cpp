@@ -38,7 +38,7 @@ void race(const Context& c, std::vector<Entrant<R>>& entrants, const std::string
         }
     for (auto& e : entrants)
         c.report.add(e.case_name, e.impl, "rays_per_s", per_s(static_cast<double>(rays), median(e.ms)), "rays/s",
-                     e.impl == "embree" ? "" : base);
+                     e.impl == "embree" ? "" : base, e.variant ? e.variant->name : "");
 }
 
 /// The first rays of the set that a traversal case traces: all of them, or (with a pass
@@ -58,18 +58,18 @@ std::span<const sylva::Ray> ray_budget(const Context& c, F&& probe) {
 /// (not a grazed sphere or a tie) or more than 1 % of the rays disagree at all. (Grazing
 /// differences grow with the hits per ray: ~0.1 % of the rays at 1e7 spheres, 26 hits a ray.)
 void cross_check(const Context& c, const std::string& name, const std::string& peer, std::size_t rays,
-                 std::size_t disagree, std::size_t unexplained, const char* against) {
-    c.report.add(name, "sylva", "disagreements", static_cast<double>(disagree), "rays", peer);
-    c.report.add(name, "sylva", "unexplained_disagreements", static_cast<double>(unexplained), "rays", peer);
+                 std::size_t disagree, std::size_t unexplained, const char* against, const std::string& config) {
+    c.report.add(name, "sylva", "disagreements", static_cast<double>(disagree), "rays", peer, config);
+    c.report.add(name, "sylva", "unexplained_disagreements", static_cast<double>(unexplained), "rays", peer, config);
     if (unexplained > 0 || static_cast<double>(disagree) > 0.01 * static_cast<double>(rays))
         c.failures.push_back(name + ": " + std::to_string(disagree) + " of " + std::to_string(rays) +
                              " rays disagree with " + against + " (" + std::to_string(unexplained) +
                              " not explained by grazing or ties)");
 }
 
-void record_cost(const Context& c, const std::string& name, TraversalCost cost) {
-    c.report.add(name, "sylva", "nodes_per_ray", cost.nodes_per_ray, "nodes/ray");
-    c.report.add(name, "sylva", "leaves_per_ray", cost.leaves_per_ray, "leaves/ray");
+void record_cost(const Context& c, const std::string& name, TraversalCost cost, const std::string& config) {
+    c.report.add(name, "sylva", "nodes_per_ray", cost.nodes_per_ray, "nodes/ray", "", config);
+    c.report.add(name, "sylva", "leaves_per_ray", cost.leaves_per_ray, "leaves/ray", "", config);
 }
 
 /// One implementation's build in the build race: run() builds once and returns the ms it timed.
@@ -106,13 +106,14 @@ void record_embree_build(const Context& c, const Builder& b, const std::vector<d
 #endif
 }
 
-/// Builds the default and leaf4 BIHs and the Embree scene, interleaved; then the encodings.
+/// Builds the default, leaf4 and query BIHs and the Embree scene, interleaved; then the encodings.
 SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres, const std::string& label) {
     SylvaIndex idx;
     std::vector<double> setup;
     std::vector<Builder> bs;
     bs.push_back({[&] { return time_sylva_build(idx.tree, spheres, TreeKind::Default, c.pool); }});
     bs.push_back({[&] { return time_sylva_build(idx.leaf4_tree, spheres, TreeKind::Leaf4, c.pool); }});
+    bs.push_back({[&] { return time_sylva_build(idx.query_tree, spheres, TreeKind::Query, c.pool); }});
 #if SYLVA_BENCH_EMBREE
     bs.push_back({[&] {
         EmbreePeer::BuildTimes t = c.embree->build(spheres);
@@ -122,10 +123,11 @@ SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres
 #endif
     build_race(c, bs);
     const std::string build = "build/" + label;
-    record_sylva_build(c.report, build, build, bs[0].ms, idx.tree);
-    record_sylva_build(c.report, build + "/leaf4", build, bs[1].ms, idx.leaf4_tree);
-    if (bs.size() > 2) record_embree_build(c, bs[2], setup, spheres.size(), build);
-    bench_sylva_encode(idx, spheres, c.opt, c.report, label);
+    record_sylva_build(c.report, build, build, bs[0].ms, idx.tree, "fixed16");
+    record_sylva_build(c.report, build + "/leaf4", build, bs[1].ms, idx.leaf4_tree, "fixed16-leaf4");
+    record_sylva_build(c.report, build + "/query", build, bs[2].ms, idx.query_tree, "fixed16-query");
+    if (bs.size() > 3) record_embree_build(c, bs[3], setup, spheres.size(), build);
+    bench_sylva_encode(idx, spheres, c.opt, c.report, label, c.pool);
     return idx;
 }
 
@@ -158,9 +160,9 @@ void first_hit(const Context& c, const SylvaIndex& idx, const std::vector<sylva:
     std::string against = es.front().impl == "embree" ? "embree" : "sylva fixed16";
     for (std::size_t i = 1; i < es.size(); ++i)
         cross_check(c, es[i].case_name, base, rays.size(), disagreements(es[i].result, ref),
-                    unexplained(es[i].result, ref, spheres, rays), against.c_str());
+                    unexplained(es[i].result, ref, spheres, rays), against.c_str(), es[i].variant->name);
     auto hit = std::count_if(ref.id.begin(), ref.id.end(), [](auto i) { return i != kNoHit; });
-    for (const Variant& v : vs) record_cost(c, base + "/" + v.name, sylva_cost(v, spheres, rays, true));
+    for (const Variant& v : vs) record_cost(c, base + "/" + v.name, sylva_cost(v, spheres, rays, true), v.name);
     c.report.add(base, "workload", "rays", static_cast<double>(rays.size()), "rays");
     c.report.add(base, "workload", "rays_hitting", static_cast<double>(hit) / static_cast<double>(rays.size()),
                  "fraction");
@@ -185,11 +187,11 @@ void all_hits(const Context& c, const SylvaIndex& idx, const std::vector<sylva::
     for (std::size_t i = 1; i < es.size(); ++i) {
         const Entrant<AllHits>& e = es[i];
         std::size_t bad = unexplained(e.result, ref, spheres, rays, sylva_hit_list(*e.variant, spheres), ref_list);
-        cross_check(c, e.case_name, base, rays.size(), disagreements(e.result, ref), bad, against.c_str());
+        cross_check(c, e.case_name, base, rays.size(), disagreements(e.result, ref), bad, against.c_str(), e.variant->name);
     }
     double hits = 0.0;
     for (auto k : ref.count) hits += k;
-    for (const Variant& v : vs) record_cost(c, base + "/" + v.name, sylva_cost(v, spheres, rays, false));
+    for (const Variant& v : vs) record_cost(c, base + "/" + v.name, sylva_cost(v, spheres, rays, false), v.name);
     c.report.add(base, "workload", "rays", static_cast<double>(rays.size()), "rays");
     c.report.add(base, "workload", "mean_hits", hits / static_cast<double>(rays.size()), "hits/ray");
 }
@@ -201,8 +203,8 @@ void run_case(const Context& c, std::size_t n, Distribution d, bool stream) {
     std::cerr << "sylva-bench: " << label << " ..." << std::endl;
     std::vector<sylva::Sphere> spheres = make_spheres(n, d, static_cast<std::uint32_t>(n) ^ 0x5EEDu);
     SylvaIndex idx = build_all(c, spheres, label);
-    first_hit(c, idx, spheres, label);
-    all_hits(c, idx, spheres, label);
+    if (c.opt.run_first) first_hit(c, idx, spheres, label);
+    if (c.opt.run_all) all_hits(c, idx, spheres, label);
     if (stream)
         c.report.add("stream/" + label + "/fixed16", "memory", "bandwidth_GB_per_s",
                      stream_gb_per_s(idx.fixed16, c.pool, c.opt.runs), "GB/s");

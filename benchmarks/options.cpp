@@ -10,7 +10,7 @@ namespace bench {
 
 std::string usage() {
     return "usage: sylva-bench [--json FILE] [--sizes 1e4,1e5,1e6,1e7] [--rays N] [--runs K]\n"
-           "                   [--threads T] [--pass-seconds S] [--quick] [--help]\n"
+           "                   [--threads T] [--pass-seconds S] [--cases LIST] [--quick] [--help]\n"
            "  --json FILE   write every measurement as one JSON array of\n"
            "                {case, impl, metric, value, unit} records\n"
            "  --sizes LIST  sphere counts, comma separated (default 1e4,1e5,1e6,1e7; --quick: 1e4,1e5)\n"
@@ -22,6 +22,8 @@ std::string usage() {
            "                rays sylva gets through in about S seconds (at least 1e4), and a build\n"
            "                or encode stops repeating once its runs took 10 S; the counts used\n"
            "                are reported (default 1, --quick: 0.2; 0 = all --rays, all --runs)\n"
+           "  --cases LIST  what runs, comma separated, of build,first,all,clustered (default: all\n"
+           "                four; builds and encodings always run, the traversals need them)\n"
            "  --quick       the small configuration (for smoke tests)\n"
            "Exit status: 0 on success, 1 on an error or when implementations disagree, 2 on bad usage.\n";
 }
@@ -48,6 +50,21 @@ std::vector<std::size_t> parse_sizes(const std::string& text) {
         start = comma + 1;
     }
     return out;
+}
+
+void parse_cases(Options& o, const std::string& text) {
+    o.run_first = o.run_all = o.run_clustered = false;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        std::size_t comma = text.find(',', start);
+        if (comma == std::string::npos) comma = text.size();
+        std::string c = text.substr(start, comma - start);
+        if (c == "first") o.run_first = true;
+        else if (c == "all") o.run_all = true;
+        else if (c == "clustered") o.run_clustered = true;
+        else if (c != "build") throw UsageError{"--cases: '" + c + "' is not one of build, first, all, clustered"};
+        start = comma + 1;
+    }
 }
 
 double parse_seconds(const std::string& text) {
@@ -92,6 +109,8 @@ Options parse_options(int argc, char** argv) {
             o.threads = parse_count(arg, value());
         } else if (arg == "--pass-seconds") {
             o.pass_seconds = parse_seconds(value());
+        } else if (arg == "--cases") {
+            parse_cases(o, value());
         } else if (arg == "--quick") {
             o.quick = true;
         } else if (arg == "--help" || arg == "-h") {

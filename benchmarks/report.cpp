@@ -12,9 +12,15 @@
 namespace bench {
 
 void Report::add(std::string case_name, std::string impl, std::string metric, double value, std::string unit,
-                 std::string peer) {
-    records_.push_back(
-        {std::move(case_name), std::move(impl), std::move(metric), value, std::move(unit), std::move(peer)});
+                 std::string peer, std::string config) {
+    records_.push_back({std::move(case_name), std::move(impl), std::move(metric), value, std::move(unit),
+                        std::move(peer), std::move(config)});
+}
+
+void Report::describe(const std::string& config, const std::string& text) {
+    for (const auto& c : configs_)
+        if (c.first == config) return;
+    configs_.emplace_back(config, text);
 }
 
 const Record* Report::find(const std::string& case_name, const std::string& impl, const std::string& metric) const {
@@ -84,7 +90,14 @@ void Report::write_json(const std::string& path) const {
         const Record& r = records_[i];
         f << "  {\"case\": " << json_string(r.case_name) << ", \"impl\": " << json_string(r.impl)
           << ", \"metric\": " << json_string(r.metric) << ", \"value\": " << json_number(r.value)
-          << ", \"unit\": " << json_string(r.unit) << "}" << (i + 1 < records_.size() ? ",\n" : "\n");
+          << ", \"unit\": " << json_string(r.unit);
+        if (!r.config.empty()) {
+            std::string text = r.config;
+            for (const auto& c : configs_)
+                if (c.first == r.config) text = c.first + ": " + c.second;
+            f << ", \"config\": " << json_string(text);
+        }
+        f << "}" << (i + 1 < records_.size() ? ",\n" : "\n");
     }
     f << "]\n";
     f.close();
@@ -116,6 +129,8 @@ void Report::print_table(bool summary) const {
         else
             row(name, r.metric, human(r.value), e ? human(e->value) : "", ratio, r.unit);
     }
+    if (!configs_.empty()) out << "sylva configurations (the last part of each case name):\n";
+    for (const auto& c : configs_) out << "  " << c.first << ": " << c.second << "\n";
     std::cout << out.str() << std::flush;
 }
 

@@ -25,7 +25,7 @@ double per_s(double count, double ms) { return count / (std::max(ms, 1e-6) / 100
 template <class P>
 std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sphere> es, const P& payload,
                                        bih::NodeFormat format, const std::string& name, const Options& opt,
-                                       Report& report) {
+                                       Report& report, const std::string& config) {
     std::vector<std::uint32_t> words;
     const bih::EncodeConfig cfg{format, bih::Layout::TreeChunks, 2};
     auto ms_all = samples(opt.runs, opt.encode_budget_ms(), [&] {
@@ -33,14 +33,25 @@ std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sp
         return time_ms([&] { words = bih::encode(tree, es, payload, cfg); });
     });
     double ms = median(ms_all);
-    report.add(name, "sylva", "encode_ms", ms, "ms");
-    report.add(name, "sylva", "runs", static_cast<double>(ms_all.size()), "runs");
-    report.add(name, "sylva", "encode_nodes_per_s", per_s(static_cast<double>(tree.nodes.size()), ms), "nodes/s");
-    report.add(name, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(words)), "bytes");
+    report.add(name, "sylva", "encode_ms", ms, "ms", "", config);
+    report.add(name, "sylva", "runs", static_cast<double>(ms_all.size()), "runs", "", config);
+    report.add(name, "sylva", "encode_nodes_per_s", per_s(static_cast<double>(tree.nodes.size()), ms), "nodes/s", "",
+               config);
+    report.add(name, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(words)), "bytes", "", config);
     return words;
 }
 
 }  // namespace
+
+void describe_configs(Report& report) {
+    report.describe("fixed16", "bih::Config{} (1 sphere a leaf, trimmed, trim-both); EncodeConfig{Fixed16, TreeChunks, 2}, "
+                               "RangePayload; bih::first_hit / all_hits(words, tree, spheres) (elements via tree.order)");
+    report.describe("float32", "as fixed16 with NodeFormat::Float32");
+    report.describe("fixed16-leaf4", "bih::Config{max_leaf_elements = 4, trim_leaves = false}; otherwise as fixed16");
+    report.describe("fixed16-query", "bih::Config::for_queries() (up to 16 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
+                             "TreeChunks, 2}, RangePayload; bih::LeafRecords (spheres in leaf order, 16-byte records, "
+                             "tested four at a time); bih::first_hit / all_hits(words, records)");
+}
 
 double time_sylva_build(bih::Tree& out, const std::vector<Sphere>& spheres, TreeKind kind, sylva::ThreadPool& pool) {
     bih::Config cfg;
@@ -48,41 +59,57 @@ double time_sylva_build(bih::Tree& out, const std::vector<Sphere>& spheres, Tree
         cfg.max_leaf_elements = 4;
         cfg.trim_leaves = false;
     }
+    if (kind == TreeKind::Query) cfg = bih::Config::for_queries();
     out = {};
     return time_ms([&] { out = bih::build(std::span<const Sphere>(spheres), cfg, pool); });
 }
 
 void record_sylva_build(Report& report, const std::string& name, const std::string& peer, const std::vector<double>& ms,
-                        const bih::Tree& tree) {
+                        const bih::Tree& tree, const std::string& config) {
     double b = median(ms);
     const bih::BuildStats& st = tree.stats;
-    report.add(name, "sylva", "build_ms", b, "ms", peer);
-    report.add(name, "sylva", "build_elements_per_s", per_s(static_cast<double>(st.elements), b), "elements/s", peer);
-    report.add(name, "sylva", "runs", static_cast<double>(ms.size()), "runs", peer);
-    report.add(name, "sylva", "nodes", static_cast<double>(st.nodes), "nodes");
-    report.add(name, "sylva", "max_depth", st.max_depth, "levels");
-    report.add(name, "sylva", "single_child_percent", st.percent_single_child(), "%");
+    report.add(name, "sylva", "build_ms", b, "ms", peer, config);
+    report.add(name, "sylva", "build_elements_per_s", per_s(static_cast<double>(st.elements), b), "elements/s", peer,
+               config);
+    report.add(name, "sylva", "runs", static_cast<double>(ms.size()), "runs", peer, config);
+    report.add(name, "sylva", "nodes", static_cast<double>(st.nodes), "nodes", "", config);
+    report.add(name, "sylva", "max_depth", st.max_depth, "levels", "", config);
+    report.add(name, "sylva", "single_child_percent", st.percent_single_child(), "%", "", config);
 }
 
 void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, const Options& opt, Report& report,
-                        const std::string& label) {
+                        const std::string& label, sylva::ThreadPool& pool) {
     std::span<const Sphere> es(spheres);
     const std::string build = "build/" + label, enc = "encode/" + label;
     idx.fixed16 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-range", opt,
-                              report);
+                              report, "fixed16");
     idx.float32 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Float32, enc + "/float32-range", opt,
-                              report);
+                              report, "float32");
     time_encode(idx.tree, es, sylva::ParticlePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-particle", opt,
-                report);
+                report, "fixed16");
     idx.leaf4 = bih::encode(idx.leaf4_tree, es, bih::RangePayload{});
-    report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build);
-    report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build);
+    idx.query = time_encode(idx.query_tree, es, bih::RangePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-query",
+                            opt, report, "fixed16-query");
+    auto ms = samples(opt.runs, opt.encode_budget_ms(), [&] {
+        idx.query_records = {};
+        return time_ms([&] { idx.query_records = bih::LeafRecords<Sphere>(idx.query_tree, es, pool); });
+    });
+    report.add(enc + "/fixed16-query-records", "sylva", "encode_ms", median(ms), "ms", "", "fixed16-query");
+    report.add(enc + "/fixed16-query-records", "sylva", "bytes",
+               static_cast<double>(idx.query_records.records().size_bytes() + idx.query_records.ids().size_bytes()),
+               "bytes", "", "fixed16-query");
+    report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build, "fixed16");
+    report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build,
+               "fixed16-leaf4");
+    report.add(build + "/query", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.query)), "bytes", build,
+               "fixed16-query");
 }
 
 std::vector<Variant> variants(const SylvaIndex& idx) {
     return {{"fixed16", &idx.tree, &idx.fixed16},
             {"float32", &idx.tree, &idx.float32},
-            {"fixed16-leaf4", &idx.leaf4_tree, &idx.leaf4}};
+            {"fixed16-leaf4", &idx.leaf4_tree, &idx.leaf4},
+            {"fixed16-query", &idx.query_tree, &idx.query, &idx.query_records}};
 }
 
 FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
@@ -92,8 +119,10 @@ FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres,
     const bih::Tree& tree = *v.tree;
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
-        for (std::size_t i = lo; i < hi; ++i)
-            if (auto h = bih::first_hit(w, tree, es, rays[i])) out.id[i] = h->element;
+        for (std::size_t i = lo; i < hi; ++i) {
+            auto h = v.records ? bih::first_hit(w, *v.records, rays[i]) : bih::first_hit(w, tree, es, rays[i]);
+            if (h) out.id[i] = h->element;
+        }
     });
     return out;
 }
@@ -107,7 +136,10 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         std::vector<bih::ElementHit> hits;
         for (std::size_t i = lo; i < hi; ++i) {
-            bih::all_hits(w, tree, es, rays[i], hits);
+            if (v.records)
+                bih::all_hits(w, *v.records, rays[i], hits);
+            else
+                bih::all_hits(w, tree, es, rays[i], hits);
             std::uint64_t set = 0;
             for (const auto& h : hits) set += mix_id(h.element);
             out.count[i] = static_cast<std::uint32_t>(hits.size());
@@ -120,7 +152,10 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
 HitList sylva_hit_list(const Variant& v, const std::vector<Sphere>& spheres) {
     return [v, &spheres](const sylva::Ray& ray) {
         std::vector<bih::ElementHit> hits;
-        bih::all_hits(std::span<const std::uint32_t>(*v.words), *v.tree, std::span<const Sphere>(spheres), ray, hits);
+        if (v.records)
+            bih::all_hits(std::span<const std::uint32_t>(*v.words), *v.records, ray, hits);
+        else
+            bih::all_hits(std::span<const std::uint32_t>(*v.words), *v.tree, std::span<const Sphere>(spheres), ray, hits);
         std::vector<std::uint32_t> ids;
         for (const auto& h : hits) ids.push_back(h.element);
         return ids;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <sylva/bih/query.hpp>
 #include <sylva/bih/tree.hpp>
 #include <sylva/core/executor.hpp>
 
@@ -15,37 +16,48 @@
 namespace bench {
 
 /// A built tree and its two RangePayload encodings (the queries' inputs), plus a second tree
-/// with up to 4 spheres per untrimmed leaf (what the default's one trimmed sphere per leaf costs).
+/// with up to 4 spheres per untrimmed leaf (what the default's one trimmed sphere per leaf costs),
+/// and the query tree (bih::Config::for_queries()) with its spheres in leaf order.
 struct SylvaIndex {
     sylva::bih::Tree tree;
     std::vector<std::uint32_t> fixed16;
     std::vector<std::uint32_t> float32;
     sylva::bih::Tree leaf4_tree;
     std::vector<std::uint32_t> leaf4;  ///< fixed16 encoding of leaf4_tree
+    sylva::bih::Tree query_tree;
+    std::vector<std::uint32_t> query;  ///< fixed16 encoding of query_tree
+    sylva::bih::LeafRecords<sylva::Sphere> query_records;
 };
 
-/// One encoding the traversal cases run: its name in case names, its tree and words.
+/// One encoding the traversal cases run: its name in case names, its tree and words, and the
+/// spheres in leaf order where the variant uses them (else the queries go through tree.order).
 struct Variant {
     std::string name;
     const sylva::bih::Tree* tree;
     const std::vector<std::uint32_t>* words;
+    const sylva::bih::LeafRecords<sylva::Sphere>* records = nullptr;
 };
-/// fixed16 and float32 of the default tree, then fixed16-leaf4.
+/// fixed16 and float32 of the default tree, fixed16-leaf4, then fixed16-query.
 std::vector<Variant> variants(const SylvaIndex& idx);
 
-/// The two builds the cases time: bih::Config{} (one trimmed sphere per leaf), and leaf4.
-enum class TreeKind { Default, Leaf4 };
+/// What each configuration name in case names means (build and encode settings, query path).
+void describe_configs(Report& report);
+
+/// The builds the cases time: bih::Config{} (one trimmed sphere per leaf), leaf4 (4 spheres a
+/// leaf, untrimmed) and query (bih::Config::for_queries()).
+enum class TreeKind { Default, Leaf4, Query };
 /// One timed bih::build into `out` (its previous tree is freed before the clock starts); ms.
 double time_sylva_build(sylva::bih::Tree& out, const std::vector<sylva::Sphere>& spheres, TreeKind kind,
                         sylva::ThreadPool& pool);
 /// Records a build's median time, elements/s, runs and the tree's shape under `name`.
 void record_sylva_build(Report& report, const std::string& name, const std::string& peer,
-                        const std::vector<double>& ms, const sylva::bih::Tree& tree);
+                        const std::vector<double>& ms, const sylva::bih::Tree& tree, const std::string& config);
 
 /// Times the encoders over idx.tree (fixed16 and float32 with RangePayload, fixed16 with
-/// ParticlePayload) under "encode/<label>/..."; fills idx's encodings (leaf4 untimed).
+/// ParticlePayload) and the query tree (fixed16, and its LeafRecords) under "encode/<label>/...";
+/// fills idx's encodings (leaf4 untimed).
 void bench_sylva_encode(SylvaIndex& idx, const std::vector<sylva::Sphere>& spheres, const Options& opt,
-                        Report& report, const std::string& label);
+                        Report& report, const std::string& label, sylva::ThreadPool& pool);
 
 /// One pass of bih::first_hit over all rays, in parallel on `pool`.
 FirstHits sylva_first_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres,

@@ -1,10 +1,14 @@
 // sylva-bench: sylva's BIH against Embree 3 on the same spheres and the same rays.
 //
-//   sylva-bench [--json FILE] [--sizes 1e4,1e5,1e6,1e7] [--rays N] [--runs K] [--threads T] [--quick]
+//   sylva-bench [--json FILE] [--sizes 1e4,1e5,1e6,1e7] [--rays N] [--runs K] [--threads T]
+//               [--cases build,first,all,clustered] [--quick]
 //
 // Cases (each time the median of --runs runs): BIH build and encode over N spheres (uniform,
 // and clustered up to 1e6), first-hit and all-hits-in-order traversal (rays/s), and a
-// streaming-read floor over the largest encoding. --pass-seconds caps the rays and runs of the
+// streaming-read floor over the largest encoding. sylva runs in several configurations, each
+// named in the case names and described under the tables and in the JSON ("config"): the
+// paper's trimmed one-sphere leaves (fixed16, float32), 4 spheres a leaf (leaf4), and the
+// query tree (bih::Config::for_queries(), elements in leaf order via bih::LeafRecords). --pass-seconds caps the rays and runs of the
 // slow cases so that the default run stays near five minutes on two cores.
 // Traversal results are cross-checked ray by ray against Embree (or, without it, the two node
 // formats against each other); a disagreement that is not a grazed sphere or a tie, or more
@@ -19,6 +23,7 @@
 
 #include "bench.hpp"
 #include "cases.hpp"
+#include "run_sylva.hpp"
 #if SYLVA_BENCH_EMBREE
 #include "run_embree.hpp"
 #endif
@@ -54,6 +59,7 @@ int run(const bench::Options& opt) {
     sylva::ThreadPool pool(opt.threads);
     print_header(opt, pool.concurrency());
     bench::Report report;
+    bench::describe_configs(report);
     report.add("machine", "machine", "threads", static_cast<double>(pool.concurrency()), "threads");
     report.add("machine", "machine", "load_average_start", load_average(), "processes");
     std::vector<std::string> failures;
@@ -67,7 +73,7 @@ int run(const bench::Options& opt) {
     std::size_t largest = *std::max_element(opt.sizes.begin(), opt.sizes.end());
     for (std::size_t n : opt.sizes) {
         bench::run_case(c, n, bench::Distribution::Uniform, n == largest);
-        if (n <= kClusteredMax) bench::run_case(c, n, bench::Distribution::Clustered, false);
+        if (opt.run_clustered && n <= kClusteredMax) bench::run_case(c, n, bench::Distribution::Clustered, false);
     }
     report.add("machine", "machine", "load_average_end", load_average(), "processes");
     report.print_table();
