@@ -7,7 +7,7 @@ set(_positive "elements;nodes;max_depth;bytes;rays_per_s")
 set(_data ${PROJECT_SOURCE_DIR}/../shared/data)
 
 function(sylva_render_test name)
-  cmake_parse_arguments(A "KEYS_ONLY" "RC;ERR;MAKE_FILE;MAKE_BYTES;NEED;ENV" "ARGS;FILES;JSON" ${ARGN})
+  cmake_parse_arguments(A "KEYS_ONLY" "RC;ERR;MAKE_FILE;MAKE_BYTES;NEED;ENV" "ARGS;FILES;JSON;EXTRA_KEYS" ${ARGN})
   list(JOIN A_ARGS "|" joined)
   set(defs -DEXE=$<TARGET_FILE:sylva-render> "-DARGS=${joined}")
   if(DEFINED A_RC)
@@ -26,7 +26,7 @@ function(sylva_render_test name)
     list(APPEND defs "-DFILES=${files}")
   endif()
   if(A_JSON)
-    string(REPLACE ";" "|" keys "${_keys}")
+    string(REPLACE ";" "|" keys "${_keys};${A_EXTRA_KEYS}")
     string(REPLACE ";" "|" positive "${_positive}")
     list(APPEND defs "-DJSON=${A_JSON}" "-DJSON_KEYS=${keys}")
     if(NOT A_KEYS_ONLY)  # the reference marcher has no index: nodes and depth are 0
@@ -103,3 +103,58 @@ sylva_render_test(volume_index_none_particles RC 2 ERR "--index none renders vol
   ARGS --index none -o ${_out}/x.png)
 sylva_render_test(volume_bad_procedural RC 1 ERR "unknown procedural volume"
   ARGS --volume procedural:teapot -o ${_out}/x.png)
+
+# Volumes with a kd-tree index (issue 4): the marcher with empty-space skipping on the procedural
+# volume, both builders, shallow and deep trees, both backends (kd-binned on Vulkan computes its
+# local boxes on the device), leaf boxes drawn, a transfer-function replay with rebuilds, bad input.
+file(WRITE ${_out}/tf_soft.txt "# density r g b a\n0.0 0 0 0 0\n0.08 0.5 0.3 0.2 0\n0.3 0.9 0.6 0.4 0.25\n1.0 1 1 1 0.9\n")
+file(WRITE ${_out}/tf_band.json "{\"points\": [[0.25, 0, 0, 0, 0], [0.4, 1, 0.5, 0.2, 0.7], [0.55, 0, 0, 0, 0]], \"entries\": 512}\n")
+file(WRITE ${_out}/tf_clear.txt "0.0 1 1 1 0\n1.0 1 1 1 0\n")
+set(_kd_keys "occupancy_percent;culled_percent;leaves;max_depth;codes_ms;occupancy_ms;split_ms;bytes;tf_sequence")
+foreach(backend cpu vulkan)
+  if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+    continue()
+  endif()
+  foreach(builder vidal binned)
+    foreach(depth shallow deep)
+      set(_n volume_kd_${builder}_${depth}_${backend})
+      set(_keys_only "")
+      if(depth STREQUAL "shallow")  # Vidal's criteria keep this sparse but spread volume one leaf (depth 0)
+        set(_keys_only KEYS_ONLY)
+      endif()
+      sylva_render_test(${_n} ${_keys_only}
+        ARGS --index kd-${builder} --kd ${depth} --backend ${backend} --size 96x72 --quiet -o ${_out}/${_n}.png
+             --boxes ${_out}/${_n}_boxes.png --heatmap ${_out}/${_n}_heat.png --stats-json ${_out}/${_n}.json
+        FILES ${_out}/${_n}.png ${_out}/${_n}_boxes.png ${_out}/${_n}_heat.png
+        JSON ${_out}/${_n}.json EXTRA_KEYS ${_kd_keys})
+    endforeach()
+  endforeach()
+  sylva_render_test(volume_kd_tf_sequence_${backend}
+    ARGS --index kd-binned --backend ${backend} --size 64x48 --quiet -o ${_out}/kd_seq_${backend}.png
+         --tf-sequence ${_out}/tf_soft.txt,${_out}/tf_band.json --stats-json ${_out}/kd_seq_${backend}.json
+    FILES ${_out}/kd_seq_${backend}.png ${_out}/kd_seq_${backend}_tf1.png ${_out}/kd_seq_${backend}_tf2.png
+    JSON ${_out}/kd_seq_${backend}.json EXTRA_KEYS ${_kd_keys})
+endforeach()
+sylva_render_test(volume_kd_ml_threshold_cpu
+  ARGS --volume procedural:ml --index kd-vidal --kd-classify threshold --threshold 0.5 --tf-preset ramp --size 64x48
+       --quiet -o ${_out}/kd_ml.png --stats-json ${_out}/kd_ml.json
+  FILES ${_out}/kd_ml.png JSON ${_out}/kd_ml.json EXTRA_KEYS ${_kd_keys})
+sylva_render_test(volume_kd_aneurism_cpu
+  NEED ${_data}/aneurism_256x256x256_uint8.raw
+  ARGS --volume ${_data}/aneurism_256x256x256_uint8.raw --index kd-vidal --size 96x72 --quiet -o ${_out}/kd_aneurism.png
+       --boxes ${_out}/kd_aneurism_boxes.png --stats-json ${_out}/kd_aneurism.json
+  FILES ${_out}/kd_aneurism.png ${_out}/kd_aneurism_boxes.png JSON ${_out}/kd_aneurism.json EXTRA_KEYS ${_kd_keys})
+sylva_render_test(volume_kd_clear_tf RC 1 ERR "the transfer function has no opaque entry"
+  ARGS --index kd-vidal --tf ${_out}/tf_clear.txt --size 16x16 -o ${_out}/x.png)
+sylva_render_test(volume_kd_clear_tf_sequence RC 1 ERR "--tf-sequence .*tf_clear\\.txt: the transfer function has no opaque entry"
+  ARGS --index kd-binned --size 16x16 --quiet --tf-sequence ${_out}/tf_soft.txt,${_out}/tf_clear.txt -o ${_out}/x.png)
+sylva_render_test(volume_kd_missing_tf RC 1 ERR "nope_tf\\.txt"
+  ARGS --index kd-vidal --size 16x16 --quiet --tf-sequence ${_out}/nope_tf.txt -o ${_out}/x.png)
+sylva_render_test(volume_kd_iso RC 2 ERR "--index kd-vidal renders --mode dvr only"
+  ARGS --index kd-vidal --mode iso -o ${_out}/x.png)
+sylva_render_test(volume_kd_particles RC 2 ERR "--index kd-binned renders volumes only"
+  ARGS --index kd-binned --particles ${_out}/nope.raw -o ${_out}/x.png)
+sylva_render_test(volume_kd_boxes_without_kd RC 2 ERR "--boxes and --tf-sequence need a kd-tree"
+  ARGS --mode dvr --boxes ${_out}/b.png -o ${_out}/x.png)
+sylva_render_test(volume_kd_bad_depth RC 2 ERR "--kd: 'medium' is not one of shallow\\|deep"
+  ARGS --index kd-vidal --kd medium -o ${_out}/x.png)

@@ -12,7 +12,8 @@ namespace sylva_render {
 struct Options {
     std::string particles;           ///< --particles FILE (float32 xyz triples)
     std::string volume;              ///< --volume FILE|procedural[:NAME] (.raw by name convention, .nrrd, .nhdr)
-    std::string index = "bih";       ///< --index bih|none (none: the reference marcher, volumes only)
+    std::string index = "bih";       ///< --index bih|kd-vidal|kd-binned|none (none: the reference marcher, volumes only;
+                                     ///< kd-*: the marcher with empty-space skipping by a kd-tree, volumes only)
     std::string mode;                ///< --mode dvr|iso (volumes, default dvr; implies a procedural volume without input)
     std::string dvr = "single";      ///< --dvr single|multi: BIH-DVR samples per leaf (Kinkelin 4.3)
     std::string tf;                  ///< --tf FILE (.json or text control points)
@@ -44,9 +45,19 @@ struct Options {
     std::uint32_t threads = 0;       ///< --threads T (0: all cores)
     std::optional<std::vector<float>> view;    ///< --view X,Y,Z: direction from the centre to the eye
     bool quiet = false;              ///< --quiet
+    std::string kd = "deep";         ///< --kd shallow|deep: Vidal's halting criteria or Zellmann's 8^3 leaves
+    std::string kd_classify = "alpha";  ///< --kd-classify alpha|threshold: occupancy from the TF's alpha or --threshold
+    std::string boxes;               ///< --boxes FILE: the rendering with the kd-tree's leaf boxes drawn over it
+    std::vector<std::string> tf_sequence;  ///< --tf-sequence F1,F2,...: replay TFs, rebuild the kd-tree for each
 
-    /// True when this run renders a volume (a file, or the procedural volume for --mode).
-    [[nodiscard]] bool volume_input() const { return !volume.empty() || (!mode.empty() && particles.empty()); }
+    /// True for the kd-tree indices (--index kd-vidal|kd-binned).
+    [[nodiscard]] bool kd_index() const { return index == "kd-vidal" || index == "kd-binned"; }
+
+    /// True when this run renders a volume (a file, or the procedural volume for --mode or a
+    /// kd-tree index).
+    [[nodiscard]] bool volume_input() const {
+        return !volume.empty() || ((!mode.empty() || kd_index()) && particles.empty());
+    }
 };
 
 /// Parses argv; throws std::invalid_argument with a message naming the bad option.

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include <sylva/bih/tree.hpp>
 #include <sylva/core/error.hpp>
@@ -31,6 +32,25 @@ struct Stats {
         std::uint32_t lod_depth = 0;
         double lod_ms = 0;
     } volume;
+    /// Volume runs with a kd-tree index (--index kd-vidal|kd-binned): Zellmann Table 1's columns
+    /// and the rebuilds of --tf-sequence.
+    struct KdRows {
+        bool present = false;
+        std::string builder, depth, classify, construction;
+        std::uint64_t voxels = 0, occupied = 0;
+        double occupancy_percent = 0, culled_percent = 0;
+        double codes_ms = 0, classify_ms = 0, occupancy_ms = 0, split_ms = 0;
+        /// One rebuild of --tf-sequence.
+        struct Rebuild {
+            std::string tf;
+            double occupancy_percent = 0, culled_percent = 0;
+            std::size_t nodes = 0, leaves = 0, bytes = 0;
+            std::uint32_t depth = 0;
+            double codes_ms = 0, classify_ms = 0, occupancy_ms = 0, split_ms = 0, render_ms = 0;
+            [[nodiscard]] double rebuild_ms() const { return codes_ms + classify_ms + occupancy_ms + split_ms; }
+        };
+        std::vector<Rebuild> rebuilds;
+    } kd;
 
     void fill(const sylva::bih::Tree& t, std::size_t encoded_bytes, const sylva::Frame& f) {
         elements = t.stats.elements;
@@ -72,6 +92,7 @@ struct Stats {
            << render_ms << " ms, " << rays_per_s << " rays/s\n"
            << "iterator steps   mean " << steps_mean << ", max " << steps_max << "\n";
         if (volume.present) print_volume(os);
+        if (kd.present) print_kd(os);
         if (errors) os << "ERRORS           " << errors << " rays ended on a corrupted encoding\n";
     }
 
@@ -94,6 +115,26 @@ struct Stats {
            << ", " << kb(v.lod_bytes) << " KB = "
            << 100.0 * static_cast<double>(v.lod_bytes) / static_cast<double>(std::max<std::size_t>(v.grid_bytes_16bit, 1))
            << "% of the 16-bit grid, extracted in " << v.lod_ms << " ms\n";
+    }
+
+    /// The kd-tree's Table 1 columns (Zellmann et al.) and the --tf-sequence rebuilds.
+    void print_kd(std::ostream& os) const {
+        os << "kd-tree          " << kd.builder << ", " << kd.depth << " (" << kd.construction << "), occupancy from "
+           << kd.classify << "\n"
+           << "  occupancy      " << kd.occupancy_percent << "% (" << kd.occupied << " of " << kd.voxels
+           << " voxels)\n"
+           << "  empty culled   " << kd.culled_percent << "% of the empty voxels lie outside every leaf\n"
+           << "  leaves         " << leaves << " (" << nodes << " nodes), depth " << max_depth << ", " << bytes
+           << " bytes encoded\n"
+           << "  build          segment codes " << kd.codes_ms << " ms, classify " << kd.classify_ms
+           << " ms, SVT/occupancy " << kd.occupancy_ms << " ms, split " << kd.split_ms << " ms\n";
+        if (kd.rebuilds.empty()) return;
+        os << "TF sequence      rebuild after each transfer-function change (occupancy = classify + SVT/local boxes)\n";
+        for (const KdRows::Rebuild& r : kd.rebuilds)
+            os << "  " << r.tf << ": occupancy " << r.occupancy_percent << "%, culled " << r.culled_percent << "%, "
+               << r.leaves << " leaves, depth " << r.depth << "; rebuild " << r.rebuild_ms() << " ms (codes "
+               << r.codes_ms << ", occupancy " << r.classify_ms + r.occupancy_ms << ", split " << r.split_ms
+               << "), render " << r.render_ms << " ms\n";
     }
 
     static std::string quoted(const std::string& s) {
@@ -124,8 +165,28 @@ struct Stats {
                 << ", \"full_ms\": " << v.full_ms << ", \"lod_nodes\": " << v.lod_nodes << ", \"lod_leaves\": " << v.lod_leaves
                 << ", \"lod_max_depth\": " << v.lod_depth << ", \"lod_bytes\": " << v.lod_bytes << ", \"lod_ms\": " << v.lod_ms;
         }
+        if (kd.present) write_kd_json(out);
         out << "}\n";
         if (!out) throw sylva::Error("cannot write stats file " + path);
+    }
+
+    void write_kd_json(std::ostream& out) const {
+        out << ", \"kd_builder\": " << quoted(kd.builder) << ", \"kd_depth\": " << quoted(kd.depth)
+            << ", \"kd_classify\": " << quoted(kd.classify) << ", \"kd_construction\": " << quoted(kd.construction)
+            << ", \"occupied\": " << kd.occupied
+            << ", \"occupancy_percent\": " << kd.occupancy_percent << ", \"culled_percent\": " << kd.culled_percent
+            << ", \"codes_ms\": " << kd.codes_ms << ", \"classify_ms\": " << kd.classify_ms
+            << ", \"occupancy_ms\": " << kd.occupancy_ms << ", \"split_ms\": " << kd.split_ms << ", \"tf_sequence\": [";
+        for (std::size_t i = 0; i < kd.rebuilds.size(); ++i) {
+            const KdRows::Rebuild& r = kd.rebuilds[i];
+            out << (i ? ", " : "") << "{\"tf\": " << quoted(r.tf) << ", \"occupancy_percent\": " << r.occupancy_percent
+                << ", \"culled_percent\": " << r.culled_percent << ", \"nodes\": " << r.nodes
+                << ", \"leaves\": " << r.leaves << ", \"max_depth\": " << r.depth << ", \"bytes\": " << r.bytes
+                << ", \"codes_ms\": " << r.codes_ms << ", \"classify_ms\": " << r.classify_ms
+                << ", \"occupancy_ms\": " << r.occupancy_ms << ", \"split_ms\": " << r.split_ms
+                << ", \"rebuild_ms\": " << r.rebuild_ms() << ", \"render_ms\": " << r.render_ms << "}";
+        }
+        out << "]";
     }
 };
 

@@ -1,5 +1,7 @@
 #include "volume_scene.hpp"
 
+#include "kd_scene.hpp"
+
 #include <chrono>
 #include <iostream>
 #include <optional>
@@ -55,10 +57,7 @@ volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, std::string& i
 }
 
 volume::TransferFunction transfer_function(const Options& o) {
-    if (!o.tf.empty()) {
-        bool json = o.tf.size() >= 5 && o.tf.substr(o.tf.size() - 5) == ".json";
-        return json ? volume::TransferFunction::from_json(o.tf) : volume::TransferFunction::from_text(o.tf);
-    }
+    if (!o.tf.empty()) return read_tf_file(o.tf);
     if (o.tf_preset == "ramp") return volume::TransferFunction::ramp(o.threshold, 1.0f, vec4(1.0f, 0.85f, 0.6f, 0.5f));
     return volume::TransferFunction::ct_bone_tissue();
 }
@@ -152,6 +151,11 @@ Frame render(const Options& o, const volume::DensityGrid& g, const BuiltLod& lod
 
 }  // namespace
 
+volume::TransferFunction read_tf_file(const std::string& path) {
+    bool json = path.size() >= 5 && path.substr(path.size() - 5) == ".json";
+    return json ? volume::TransferFunction::from_json(path) : volume::TransferFunction::from_text(path);
+}
+
 int run_volume(const Options& o) {
     Stats s;
     s.backend = o.backend;
@@ -159,6 +163,7 @@ int run_volume(const Options& o) {
     ThreadPool pool(o.threads);
     volume::DensityGrid g = load_grid(o, pool, s.input);
     VolumeRenderParams p = render_params(o, g);
+    if (o.kd_index()) return run_kd_volume(o, g, p, pool, s);
     BuiltLod lod;
     if (o.index == "bih") lod = build_lod(o, g, pool, s);
     else s.bytes = g.values.size() * 4;  // the float grid the marcher reads; elements stay 0: no index

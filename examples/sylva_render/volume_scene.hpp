@@ -4,6 +4,10 @@
 #ifndef SYLVA_RENDER_VOLUME_SCENE_HPP
 #define SYLVA_RENDER_VOLUME_SCENE_HPP
 
+#include <string>
+
+#include <sylva/volume/transfer_function.hpp>
+
 #include "options.hpp"
 #include "stats.hpp"
 
@@ -11,6 +15,9 @@ namespace sylva_render {
 
 /// Runs one volume render as `o` says; returns the process exit status.
 int run_volume(const Options& o);
+
+/// Reads a transfer-function file (.json, else text control points; sylva/volume/transfer_function.hpp).
+sylva::volume::TransferFunction read_tf_file(const std::string& path);
 
 }  // namespace sylva_render
 

@@ -135,12 +135,19 @@ inline double ess_ms_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// Bucket of the TF segment of density d (the shader's arithmetic), n entries.
-inline std::uint8_t ess_bucket(float d, std::uint32_t n) {
-    float x = shared::sylva_tf_clamp01(d) * static_cast<float>(n - 1);
-    std::uint32_t s = std::min(static_cast<std::uint32_t>(x), n - 1);
-    return static_cast<std::uint8_t>(EssClassifier::bucket_of(s, n));
-}
+/// Buckets of the TF segments of densities (the shader's arithmetic), n entries.
+struct EssBucketMap {
+    std::uint32_t n;
+    std::vector<std::uint8_t> of_segment;  ///< bucket of each segment
+
+    explicit EssBucketMap(std::uint32_t entries) : n(entries), of_segment(entries) {
+        for (std::uint32_t s = 0; s < n; ++s) of_segment[s] = static_cast<std::uint8_t>(EssClassifier::bucket_of(s, n));
+    }
+    [[nodiscard]] std::uint8_t operator()(float d) const {
+        float x = shared::sylva_tf_clamp01(d) * static_cast<float>(n - 1);
+        return of_segment[std::min(static_cast<std::uint32_t>(x), n - 1)];
+    }
+};
 
 /// One pass of a 3-wide min (lo) / max (hi) filter over `count` lines of `n` entries along an
 /// axis whose neighbours are `n` entries apart, in `outer` independent blocks; src -> dst.
@@ -167,13 +174,15 @@ void ess_rows(const volume::DensityGrid& g, std::uint32_t entries, std::vector<s
     constexpr float eps = 1.0f / 1048576.0f;  // 2^-20: above the rounding of three lerps
     std::uint32_t nx = g.dims.x;
     std::size_t rows = std::size_t{g.dims.y} * g.dims.z;
+    EssBucketMap bucket(entries);
     exec.parallel_for(0, rows, 64, [&](std::size_t r0, std::size_t r1) {
         std::vector<std::uint8_t> blo(nx), bhi(nx);
         for (std::size_t r = r0; r < r1; ++r) {
             const float* v = &g.values[r * nx];
             for (std::uint32_t x = 0; x < nx; ++x) {
-                blo[x] = ess_bucket(v[x] - eps, entries);
-                bhi[x] = ess_bucket(v[x] + eps, entries);
+                if (std::isnan(v[x])) throw Error("kd-dvr: the grid holds a NaN density");
+                blo[x] = bucket(v[x] - eps);
+                bhi[x] = bucket(v[x] + eps);
             }
             for (std::uint32_t x = 0; x < nx; ++x) {
                 std::uint32_t a = x > 0 ? x - 1 : x, c = x + 1 < nx ? x + 1 : x;
@@ -195,9 +204,7 @@ EssCodes ess_codes(const volume::DensityGrid& g, std::uint32_t entries, X& exec)
     if (g.values.size() != n || n == 0)
         throw Error("kd-dvr: the grid holds " + std::to_string(g.values.size()) + " values for " + std::to_string(n) +
                     " voxels");
-    if (entries < 2) throw Error("kd-dvr: the transfer function needs at least 2 entries");
-    for (float v : g.values)
-        if (std::isnan(v)) throw Error("kd-dvr: the grid holds a NaN density");
+    if (entries < 2 || entries > (1u << 24)) throw Error("kd-dvr: the transfer function needs 2 to 2^24 entries");
     std::vector<std::uint8_t> lo(n), hi(n), lo2(n), hi2(n);
     detail::ess_rows(g, entries, lo, hi, exec);
     detail::ess_filter_pass(lo, hi, lo2, hi2, g.dims.x, g.dims.y, g.dims.z, exec);                  // along y

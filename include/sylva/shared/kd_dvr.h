@@ -132,6 +132,9 @@ SYLVA_FN vec4 sylva_kd_dvr_march(SYLVA_BUF(words), SYLVA_BUF(grid), SYLVA_BUF(tf
         return vec4(0.0f);
     }
     SylvaKdIter it;
+    it.org = vec3(0.0f);  // set by init whenever next() can yield; defined here for the compiler
+    it.rcp = vec3(0.0f);
+    it.parallel = uvec3(0u);
     sylva_kd_init(it, SYLVA_PASS_BUF(words), p.word_count, origin, d, t_min, t_max);
     uint samples = 0u;
     uint k_next = 0u;
