@@ -335,13 +335,13 @@ ReplayResult replay(const V& vol, R& rebuilder, const kdtree::Config& cfg, X& ex
     for (int r = 0; r < runs; ++r)
         for (const auto& [name, tf] : tfs) {
             bool fresh_first = (r % 2) == 1;  // alternate the order: neither side always runs warm
-            double f = 0, b = 0;
             kdtree::Tree a, t;
-            if (fresh_first) f = (a = fresh_build(vol, tf, cfg, exec)).stats.occupancy_ms + a.stats.split_ms;
+            if (fresh_first) a = fresh_build(vol, tf, cfg, exec);
             double t0 = now_ms();
             t = rebuilder.rebuild(tf);
-            b = now_ms() - t0;
-            if (!fresh_first) f = (a = fresh_build(vol, tf, cfg, exec)).stats.occupancy_ms + a.stats.split_ms;
+            double b = now_ms() - t0;
+            if (!fresh_first) a = fresh_build(vol, tf, cfg, exec);
+            double f = a.stats.occupancy_ms + a.stats.split_ms;
             if (a.nodes != t.nodes) throw Error("sylva-kd-bench: rebuild and fresh build differ under " + name);
             res.rebuild.push_back(b);
             res.fresh.push_back(f);

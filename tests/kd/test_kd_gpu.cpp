@@ -208,6 +208,7 @@ TEST_CASE("binned trees from device boxes equal those from host boxes", "[parity
     for (const Config& cfg : {Config::shallow().binned(), Config::deep().binned(), Config::deep().binned(8)}) {
         kdtree::Tree a = kdtree::build(dev, cfg, pool), b = kdtree::build_binned(volume::classified(v, tf), cfg, pool);
         REQUIRE(a.nodes == b.nodes);
+        REQUIRE(vk::build_binned(pass, tf, cfg, pool).nodes == b.nodes);
         CHECK(a.leaves == b.leaves);
         CHECK(a.stats.occupied == b.stats.occupied);
         CHECK(a.stats.leaf_volume == b.stats.leaf_volume);

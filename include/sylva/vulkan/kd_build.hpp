@@ -201,6 +201,17 @@ private:
     LocalBoxPassTimings timings_;
 };
 
+/// One binned build with the local-box pass on the device: `pass`'s boxes under `classify`,
+/// then the node splitting on the host (stats.occupancy_ms is the device pass's wall time).
+/// The same tree as kdtree::build_binned(volume::classified(v, classify), cfg, exec).
+template <volume::VoxelClassifier C, Executor X>
+kdtree::Tree build_binned(LocalBoxPass& pass, const C& classify, const kdtree::Config& cfg, X& exec) {
+    kdtree::LocalBoxes boxes = pass.local_boxes(classify);
+    kdtree::Tree t = kdtree::build(boxes, cfg, exec);
+    t.stats.occupancy_ms = pass.timings().total_ms();
+    return t;
+}
+
 /// kdtree::Rebuilder with the local-box pass on the device: binned trees only (the pass gives
 /// local boxes; Config::planes must be Planes::Binned). Same trees as kdtree::Rebuilder and the
 /// fresh binned build. The Context and executor must outlive it; the volume need not.
