@@ -123,7 +123,7 @@ foreach(backend cpu vulkan)
         set(_keys_only KEYS_ONLY)
       endif()
       sylva_render_test(${_n} ${_keys_only}
-        ARGS --index kd-${builder} --kd ${depth} --backend ${backend} --size 96x72 --quiet -o ${_out}/${_n}.png
+        ARGS --index kd-${builder} --kd ${depth} --backend ${backend} --size 96x72 --repeat 2 --quiet -o ${_out}/${_n}.png
              --boxes ${_out}/${_n}_boxes.png --heatmap ${_out}/${_n}_heat.png --stats-json ${_out}/${_n}.json
         FILES ${_out}/${_n}.png ${_out}/${_n}_boxes.png ${_out}/${_n}_heat.png
         JSON ${_out}/${_n}.json EXTRA_KEYS ${_kd_keys})

@@ -120,12 +120,13 @@ private:
     double codes_ms_ = 0.0;
 };
 
+/// Renders with ESS DVR (the fastest of --repeat frames; the tree is uploaded once).
 inline Frame render(const Options& o, const GridWords& gw, const std::vector<std::uint32_t>& words,
              const VolumeRenderParams& p, ThreadPool& pool, Device& dev) {
-    if (o.backend == "cpu") return render_kd_dvr_cpu(gw, words, p, pool);
+    if (o.backend == "cpu") return best_of(o.repeat, [&] { return render_kd_dvr_cpu(gw, words, p, pool); });
 #ifdef SYLVA_RENDER_VULKAN
     vk::DeviceKdTree kd(*dev.ctx, words);
-    return vk::render_kd_dvr_vulkan(*dev.ctx, *dev.grid, kd, p);
+    return best_of(o.repeat, [&] { return vk::render_kd_dvr_vulkan(*dev.ctx, *dev.grid, kd, p); });
 #else
     (void)dev;
     throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");

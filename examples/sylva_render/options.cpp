@@ -20,6 +20,8 @@ const char* usage() {
            "                    [--shading] [--opacity A] [--alpha-stop A]\n"
            "kd-trees (volumes): [--kd shallow|deep] [--kd-classify alpha|threshold] [--boxes FILE]\n"
            "                    [--tf-sequence TF1,TF2,...]\n"
+           "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
+           "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
            "kd-tree (Vidal et al.; Zellmann et al.): the same image, fewer samples.\n"
            "With no input it renders a procedural galaxy of --count particles (default 1,000,000);\n"
@@ -83,6 +85,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--kd-classify") o.kd_classify = one_of(a, value(), {"alpha", "threshold"});
         else if (a == "--boxes") o.boxes = value();
         else if (a == "--tf-sequence") o.tf_sequence = parse_list(a, value());
+        else if (a == "--repeat") o.repeat = static_cast<std::uint32_t>(number(a, value(), 1, 1000));
         else if (a == "--mode") o.mode = one_of(a, value(), {"dvr", "iso"});
         else if (a == "--dvr") o.dvr = one_of(a, value(), {"single", "multi"});
         else if (a == "--tf") o.tf = value();

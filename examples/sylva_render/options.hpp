@@ -49,6 +49,7 @@ struct Options {
     std::string kd_classify = "alpha";  ///< --kd-classify alpha|threshold: occupancy from the TF's alpha or --threshold
     std::string boxes;               ///< --boxes FILE: the rendering with the kd-tree's leaf boxes drawn over it
     std::vector<std::string> tf_sequence;  ///< --tf-sequence F1,F2,...: replay TFs, rebuild the kd-tree for each
+    std::uint32_t repeat = 1;        ///< --repeat N: render a volume N times, report the fastest frame
 
     /// True for the kd-tree indices (--index kd-vidal|kd-binned).
     [[nodiscard]] bool kd_index() const { return index == "kd-vidal" || index == "kd-binned"; }

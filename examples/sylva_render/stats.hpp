@@ -6,6 +6,7 @@
 #include <fstream>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <sylva/bih/tree.hpp>
@@ -20,6 +21,7 @@ struct Stats {
     std::uint32_t max_depth = 0, heatmap_peak = 0, width = 0, height = 0;
     double build_ms = 0, encode_ms = 0, render_ms = 0, rays_per_s = 0, single_child_percent = 0, steps_mean = 0;
     std::uint32_t steps_max = 0;
+    std::uint32_t repeat = 1;  ///< frames rendered (--repeat); the figures are the fastest one's
     /// Volume runs: Kinkelin Table 3's rows for what was built (empty for particles).
     struct VolumeRows {
         bool present = false;
@@ -89,7 +91,8 @@ struct Stats {
            << "build            " << build_ms << " ms (" << elements / std::max(build_ms, 1e-9) * 1000.0
            << " elements/s), encode " << encode_ms << " ms\n"
            << "render           " << backend << " on " << device << ": " << width << "x" << height << " in "
-           << render_ms << " ms, " << rays_per_s << " rays/s\n"
+           << render_ms << " ms, " << rays_per_s << " rays/s"
+           << (repeat > 1 ? " (fastest of " + std::to_string(repeat) + " frames)" : std::string()) << "\n"
            << "iterator steps   mean " << steps_mean << ", max " << steps_max << "\n";
         if (volume.present) print_volume(os);
         if (kd.present) print_kd(os);
@@ -155,7 +158,7 @@ struct Stats {
             << ", \"single_child_percent\": " << single_child_percent << ", \"bytes\": " << bytes
             << ", \"build_ms\": " << build_ms << ", \"encode_ms\": " << encode_ms << ", \"render_ms\": " << render_ms
             << ", \"rays_per_s\": " << rays_per_s << ", \"width\": " << width << ", \"height\": " << height
-            << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max << ", \"errors\": " << errors;
+            << ", \"repeat\": " << repeat << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max << ", \"errors\": " << errors;
         if (volume.present) {
             const VolumeRows& v = volume;
             out << ", \"mode\": " << quoted(v.mode) << ", \"voxels\": " << v.voxels
@@ -189,6 +192,18 @@ struct Stats {
         out << "]";
     }
 };
+
+/// Runs `frame()` n times (at least once) and returns the fastest frame: timings of warm
+/// runs (caches filled, Vulkan pipelines compiled on the first dispatch).
+template <class F>
+sylva::Frame best_of(std::uint32_t n, F&& frame) {
+    sylva::Frame best = frame();
+    for (std::uint32_t i = 1; i < n; ++i) {
+        sylva::Frame f = frame();
+        if (f.ms < best.ms) best = std::move(f);
+    }
+    return best;
+}
 
 }  // namespace sylva_render
 

@@ -132,17 +132,17 @@ Frame render(const Options& o, const volume::DensityGrid& g, const BuiltLod& lod
     VoxelBihView view{lod.words, lod.ranges, g.spacing, g.world_box()};
     if (o.backend == "cpu") {
         device = "host, " + std::to_string(pool.concurrency()) + " threads";
-        return render_volume_cpu(VolumeScene{grid ? &*grid : nullptr, view}, p, pool);
+        return best_of(o.repeat, [&] { return render_volume_cpu(VolumeScene{grid ? &*grid : nullptr, view}, p, pool); });
     }
 #ifdef SYLVA_RENDER_VULKAN
     vk::Context ctx = vk::Context::create();
     device = ctx.describe();
     if (grid) {
         vk::DeviceGrid dg(ctx, *grid);
-        return vk::render_dvr_vulkan(ctx, dg, p);
+        return best_of(o.repeat, [&] { return vk::render_dvr_vulkan(ctx, dg, p); });
     }
     vk::DeviceVoxelBih db(ctx, view);
-    return vk::render_bih_dvr_vulkan(ctx, db, p);
+    return best_of(o.repeat, [&] { return vk::render_bih_dvr_vulkan(ctx, db, p); });
 #else
     (void)view;
     throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
@@ -160,6 +160,7 @@ int run_volume(const Options& o) {
     Stats s;
     s.backend = o.backend;
     s.index = o.index;
+    s.repeat = o.repeat;
     ThreadPool pool(o.threads);
     volume::DensityGrid g = load_grid(o, pool, s.input);
     VolumeRenderParams p = render_params(o, g);
