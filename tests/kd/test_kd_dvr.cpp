@@ -376,6 +376,9 @@ TEST_CASE("ess dvr: trees that do not fit the grid are refused, corrupt trees ar
     std::vector<std::uint32_t> junk(64, 7u);
     CHECK_THROWS_WITH(render_kd_dvr_cpu(gw, junk, p, pool), Catch::Contains("not a valid encoded kd-tree"));
     CHECK_THROWS_WITH(ess_classifier(std::vector<std::uint32_t>{5u}), Catch::Contains("2 to 2^24 entries"));
+    volume::DensityGrid nan_grid = g;
+    nan_grid.values[1234] = std::nanf("");
+    CHECK_THROWS_WITH(ess_codes(nan_grid, 256, pool), Catch::Contains("NaN density"));
     CHECK_THROWS_WITH(ess_occupancy(ess_codes(g, 256, pool), ess_classifier(std::vector<std::uint32_t>(300, 0u)), pool),
                       Catch::Contains("codes made for a TF of 256 entries"));
 

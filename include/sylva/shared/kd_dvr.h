@@ -23,7 +23,7 @@
 // own boundary, where the marcher's span ends too), far more than the ~1e-4 voxel by which the
 // iterator's voxel-space parameters and the marcher's world-space sample positions can
 // disagree; no further dilation is needed (volume::dilate would only add empty space: +45 %
-// samples on the aneurism's deep tree).
+// steps per ray on the aneurism's deep tree).
 //
 // Rounding at leaf faces. For each leaf the samples are taken over the ray's interval in the
 // leaf's box grown by SYLVA_KD_DVR_MARGIN voxels on every side, not over the iterator's
