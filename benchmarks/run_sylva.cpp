@@ -25,12 +25,12 @@ double per_s(double count, double ms) { return count / (std::max(ms, 1e-6) / 100
 template <class P>
 std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sphere> es, const P& payload,
                                        bih::NodeFormat format, const std::string& name, const Options& opt,
-                                       Report& report, const std::string& config) {
+                                       Report& report, const std::string& config, sylva::ThreadPool& pool) {
     std::vector<std::uint32_t> words;
     const bih::EncodeConfig cfg{format, bih::Layout::TreeChunks, 2};
     auto ms_all = samples(opt.runs, opt.encode_budget_ms(), [&] {
         words = {};
-        return time_ms([&] { words = bih::encode(tree, es, payload, cfg); });
+        return time_ms([&] { words = bih::encode(tree, es, payload, cfg, pool); });
     });
     double ms = median(ms_all);
     report.add(name, "sylva", "encode_ms", ms, "ms", "", config);
@@ -82,14 +82,14 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
     std::span<const Sphere> es(spheres);
     const std::string build = "build/" + label, enc = "encode/" + label;
     idx.fixed16 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-range", opt,
-                              report, "fixed16");
+                              report, "fixed16", pool);
     idx.float32 = time_encode(idx.tree, es, bih::RangePayload{}, bih::NodeFormat::Float32, enc + "/float32-range", opt,
-                              report, "float32");
+                              report, "float32", pool);
     time_encode(idx.tree, es, sylva::ParticlePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-particle", opt,
-                report, "fixed16");
-    idx.leaf4 = bih::encode(idx.leaf4_tree, es, bih::RangePayload{});
+                report, "fixed16", pool);
+    idx.leaf4 = bih::encode(idx.leaf4_tree, es, bih::RangePayload{}, {}, pool);
     idx.query = time_encode(idx.query_tree, es, bih::RangePayload{}, bih::NodeFormat::Fixed16, enc + "/fixed16-query",
-                            opt, report, "fixed16-query");
+                            opt, report, "fixed16-query", pool);
     auto ms = samples(opt.runs, opt.encode_budget_ms(), [&] {
         idx.query_records = {};
         return time_ms([&] { idx.query_records = bih::LeafRecords<Sphere>(idx.query_tree, es, pool); });

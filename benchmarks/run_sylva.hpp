@@ -53,9 +53,9 @@ double time_sylva_build(sylva::bih::Tree& out, const std::vector<sylva::Sphere>&
 void record_sylva_build(Report& report, const std::string& name, const std::string& peer,
                         const std::vector<double>& ms, const sylva::bih::Tree& tree, const std::string& config);
 
-/// Times the encoders over idx.tree (fixed16 and float32 with RangePayload, fixed16 with
-/// ParticlePayload) and the query tree (fixed16, and its LeafRecords) under "encode/<label>/...";
-/// fills idx's encodings (leaf4 untimed).
+/// Times the encoders (on `pool`) over idx.tree (fixed16 and float32 with RangePayload, fixed16
+/// with ParticlePayload) and the query tree (fixed16, and its LeafRecords) under
+/// "encode/<label>/..."; fills idx's encodings (leaf4 untimed).
 void bench_sylva_encode(SylvaIndex& idx, const std::vector<sylva::Sphere>& spheres, const Options& opt,
                         Report& report, const std::string& label, sylva::ThreadPool& pool);
 

@@ -2,9 +2,11 @@
 #include <catch2/catch.hpp>
 
 #include <cstdint>
+#include <cstring>
 #include <functional>
 
 #include <sylva/bih/build.hpp>
+#include <sylva/bih/encode.hpp>
 
 #include "generators.hpp"
 
@@ -230,4 +232,58 @@ TEST_CASE("Config::for_queries: leaves of up to 16 elements, no trim chains", "[
     CHECK(t.stats.leaves * 16 >= elems.size());
     CHECK(t.stats.nodes < elems.size() / 4);  // the default tree has ~5 nodes an element
     CHECK(t.stats.percent_single_child() < 5.0);
+}
+
+namespace {
+/// A payload that reads the leaf's elements, so the encoder's gather runs (RangePayload skips it).
+struct BoxBitsPayload {
+    static constexpr std::uint32_t kind = 200;
+    [[nodiscard]] std::uint64_t encode(std::span<const BoxElement> leaf, std::uint32_t first) const {
+        std::uint64_t h = first;
+        for (const BoxElement& b : leaf) {
+            std::uint32_t u;
+            std::memcpy(&u, &b.box.lo.x, 4);
+            h = h * 31 + u;
+        }
+        return h & ((std::uint64_t{1} << 62) - 1);
+    }
+};
+
+std::uint64_t words_fingerprint(const std::vector<std::uint32_t>& w) {
+    std::uint64_t h = 1469598103934665603ull;
+    for (std::uint32_t x : w)
+        for (int k = 0; k < 4; ++k) h = (h ^ ((x >> (8 * k)) & 255u)) * 1099511628211ull;
+    return h;
+}
+}  // namespace
+
+TEST_CASE("encodings equal the original encoder's, serial and parallel (golden fingerprints)", "[bih][encode]") {
+    // Fingerprints of what the original (serial, 704a01c) encoder wrote for these trees: pairs of
+    // RangePayload and a payload that reads the elements, in four formats / layouts.
+    const std::uint64_t want[2][8] = {
+        {0xe97e25cfb52796b9ull, 0x0104b324c2a0e8bbull, 0xd0616a5b12f01144ull, 0xaf7aa85b7ec49f8eull,
+         0x5fbcff599864e64bull, 0x47139af5140ea281ull, 0x2829d587f93b71cfull, 0x58ba18af740e494dull},
+        {0x6aba5070316ec035ull, 0xff289d56de58be29ull, 0xf3a78e47f0181d47ull, 0x5034fbe461fd7b37ull,
+         0xe74ffb906ea74bd0ull, 0x065cdf3fecdf2c28ull, 0xaf3b5fcc612ba616ull, 0xe120576f2a05503aull},
+    };
+    const bih::EncodeConfig ecs[4] = {{},
+                                      {bih::NodeFormat::Float32, bih::Layout::PreOrder, 0},
+                                      {bih::NodeFormat::Fixed16, bih::Layout::TreeChunks, 0},
+                                      {bih::NodeFormat::Float32, bih::Layout::TreeChunks, 5}};
+    ThreadPool pool(2);
+    for (int set = 0; set < 2; ++set) {
+        auto elems = golden_boxes(set == 0 ? 0 : 2, set == 0 ? 20000 : 3001);
+        std::span<const BoxElement> es(elems);
+        bih::Tree t = bih::build(es, golden_configs()[set == 0 ? 0 : 1]);
+        for (int e = 0; e < 4; ++e) {
+            INFO("set " << set << ", encoding " << e);
+            CHECK(words_fingerprint(bih::encode(t, es, bih::RangePayload{}, ecs[e])) == want[set][2 * e]);
+            CHECK(words_fingerprint(bih::encode(t, es, bih::RangePayload{}, ecs[e], pool)) == want[set][2 * e]);
+            CHECK(words_fingerprint(bih::encode(t, es, BoxBitsPayload{}, ecs[e], pool)) == want[set][2 * e + 1]);
+        }
+    }
+    // A payload that reads elements is never handed ones the caller did not give.
+    auto elems = golden_boxes(0, 1000);
+    bih::Tree t = bih::build(std::span<const BoxElement>(elems));
+    CHECK_THROWS_AS(bih::encode(t, std::span<const BoxElement>(elems).first(500), BoxBitsPayload{}), Error);
 }

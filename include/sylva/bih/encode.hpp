@@ -3,16 +3,19 @@
 #ifndef SYLVA_BIH_ENCODE_HPP
 #define SYLVA_BIH_ENCODE_HPP
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "sylva/bih/payload.hpp"
 #include "sylva/bih/tree.hpp"
 #include "sylva/core/error.hpp"
+#include "sylva/core/executor.hpp"
 #include "sylva/shared/bih_layout.h"
 
 namespace sylva::bih {
@@ -89,24 +92,31 @@ inline void place_preorder(const Tree& t, Placement& pl) {
     }
 }
 
+/// Places the chunk below `parent` (its depth + 1 levels, breadth first, from `next` on), then
+/// the chunks below that chunk's last level, depth first in order. Iterative (an explicit stack
+/// of chunk parents, buffers reused): a 10^7-element tree has millions of chunks.
 inline void place_chunk(const Tree& t, Placement& pl, std::uint32_t parent, std::uint32_t depth,
                         std::uint32_t& next) {
-    std::vector<std::uint32_t> level{parent}, below;
-    for (std::uint32_t lvl = 0; lvl <= depth && !level.empty(); ++lvl) {
-        below.clear();
-        for (std::uint32_t p : level) {
-            std::uint32_t kids[2];
-            int k = stored_children(t.nodes[p], kids);
-            if (k == 0) continue;
-            pl.link[p] = next;
-            for (int c = 0; c < k; ++c) {
-                pl.pos[kids[c]] = next++;
-                below.push_back(kids[c]);
+    std::vector<std::uint32_t> pending{parent}, level, below;
+    while (!pending.empty()) {
+        level.assign(1, pending.back());
+        pending.pop_back();
+        for (std::uint32_t lvl = 0; lvl <= depth && !level.empty(); ++lvl) {
+            below.clear();
+            for (std::uint32_t p : level) {
+                std::uint32_t kids[2];
+                int k = stored_children(t.nodes[p], kids);
+                if (k == 0) continue;
+                pl.link[p] = next;
+                for (int c = 0; c < k; ++c) {
+                    pl.pos[kids[c]] = next++;
+                    below.push_back(kids[c]);
+                }
             }
+            level.swap(below);
         }
-        level.swap(below);
+        pending.insert(pending.end(), level.rbegin(), level.rend());  // first of them on top
     }
-    for (std::uint32_t p : level) place_chunk(t, pl, p, depth, next);  // child chunks, depth first
 }
 
 inline Placement place(const Tree& t, const EncodeConfig& cfg) {
@@ -120,10 +130,9 @@ inline Placement place(const Tree& t, const EncodeConfig& cfg) {
     return pl;
 }
 
-inline void write_header(std::vector<std::uint32_t>& w, const Tree& t, const EncodeConfig& cfg, std::uint32_t kind) {
+inline void write_header(std::vector<std::uint32_t>& w, const Tree& t, const EncodeConfig& cfg, std::uint32_t kind,
+                         bool single) {
     bool f32 = cfg.format == NodeFormat::Float32;
-    bool single = false;
-    for (const Node& n : t.nodes) single = single || n.single;
     w[0] = SYLVA_BIH_MAGIC;
     w[1] = SYLVA_BIH_VERSION;
     w[2] = (f32 ? SYLVA_BIH_FLAG_FLOAT_NODES : 0u) | (cfg.layout == Layout::TreeChunks ? SYLVA_BIH_FLAG_CHUNKED : 0u) |
@@ -157,41 +166,83 @@ inline void write_planes(std::uint32_t* at, const Node& n, const Tree& t, bool f
 
 }  // namespace detail
 
-/// Encodes `tree` (built over `elements`) with leaf payloads from `payload`.
-/// Throws sylva::Error when the tree has more nodes than the 29-bit index field can address,
-/// or a payload does not fit in 62 bits.
+namespace detail {
+
+/// Writes nodes [lo, hi) of `tree` at their placed positions; true if one of them is a
+/// single-child node. Leaves get `payload`'s bits for their elements (RangePayload needs only
+/// the range, so its leaves skip gathering the elements).
 template <Bounded E, class P>
+bool write_nodes(std::vector<std::uint32_t>& w, const Tree& tree, std::span<const E> elements, const P& payload,
+                 const Placement& pl, bool f32, std::size_t lo, std::size_t hi) {
+    const std::uint32_t stride = f32 ? 3u : 2u;
+    std::vector<E> leaf_elems;
+    bool single = false;
+    for (std::size_t i = lo; i < hi; ++i) {
+        const Node& n = tree.nodes[i];
+        std::uint32_t* at = &w[SYLVA_BIH_HEADER_WORDS + std::size_t{pl.pos[i]} * stride];
+        std::uint32_t& meta = at[stride - 1];
+        if (n.leaf()) {
+            std::uint64_t bitsv;
+            if constexpr (std::is_same_v<P, RangePayload>) {
+                bitsv = std::uint64_t{n.first} | (std::uint64_t{n.count} << 32);  // RangePayload::encode
+            } else {
+                leaf_elems.clear();
+                for (std::uint32_t k = 0; k < n.count; ++k) {
+                    std::size_t at_order = std::size_t{n.first} + k;
+                    std::uint32_t e = at_order < tree.order.size() ? tree.order[at_order] : ~0u;
+                    if (e >= elements.size())
+                        throw Error("bih::encode: leaf " + std::to_string(i) + " refers to an element beyond the " +
+                                    std::to_string(elements.size()) + " given");
+                    leaf_elems.push_back(elements[e]);
+                }
+                bitsv = payload.encode(std::span<const E>(leaf_elems), n.first);
+            }
+            if (bitsv >> 62) throw Error("bih::encode: leaf payload does not fit in 62 bits");
+            at[0] = static_cast<std::uint32_t>(bitsv);
+            meta = SYLVA_BIH_LEAF | (static_cast<std::uint32_t>(bitsv >> 32) << 2);
+            continue;
+        }
+        single = single || n.single;
+        write_planes(at, n, tree, f32);
+        meta = n.axis | (n.single ? 4u : 0u) | (pl.link[i] << 3);
+    }
+    return single;
+}
+
+}  // namespace detail
+
+/// Encodes `tree` (built over `elements`) with leaf payloads from `payload`, writing the nodes
+/// in parallel on `exec` (the placement of the nodes is one serial pass). The result does not
+/// depend on the executor. Throws sylva::Error when the tree has more nodes than the 29-bit
+/// index field can address, a payload encoder would be handed elements `elements` does not
+/// have, or a payload does not fit in 62 bits.
+template <Bounded E, class P, Executor X>
     requires PayloadEncoder<P, E>
 std::vector<std::uint32_t> encode(const Tree& tree, std::span<const E> elements, const P& payload,
-                                  const EncodeConfig& cfg = {}) {
+                                  const EncodeConfig& cfg, X& exec) {
     if (tree.nodes.empty()) throw Error("bih::encode: empty tree");
     if (tree.nodes.size() > SYLVA_BIH_MAX_INDEX)
         throw Error("bih::encode: " + std::to_string(tree.nodes.size()) + " nodes exceed the 29-bit node index");
     if (cfg.layout == Layout::TreeChunks && cfg.chunk_depth > 15)
         throw Error("bih::encode: chunk depth " + std::to_string(cfg.chunk_depth) + " is over 15");
     bool f32 = cfg.format == NodeFormat::Float32;
-    std::uint32_t stride = f32 ? 3u : 2u;
-    std::vector<std::uint32_t> w(SYLVA_BIH_HEADER_WORDS + tree.nodes.size() * stride, 0u);
-    detail::write_header(w, tree, cfg, P::kind);
+    std::vector<std::uint32_t> w(SYLVA_BIH_HEADER_WORDS + tree.nodes.size() * (f32 ? 3u : 2u), 0u);
     detail::Placement pl = detail::place(tree, cfg);
-    std::vector<E> leaf_elems;
-    for (std::size_t i = 0; i < tree.nodes.size(); ++i) {
-        const Node& n = tree.nodes[i];
-        std::uint32_t* at = &w[SYLVA_BIH_HEADER_WORDS + std::size_t{pl.pos[i]} * stride];
-        std::uint32_t& meta = at[stride - 1];
-        if (n.leaf()) {
-            leaf_elems.clear();
-            for (std::uint32_t k = 0; k < n.count; ++k) leaf_elems.push_back(elements[tree.order[n.first + k]]);
-            std::uint64_t bitsv = payload.encode(std::span<const E>(leaf_elems), n.first);
-            if (bitsv >> 62) throw Error("bih::encode: leaf payload does not fit in 62 bits");
-            at[0] = static_cast<std::uint32_t>(bitsv);
-            meta = SYLVA_BIH_LEAF | (static_cast<std::uint32_t>(bitsv >> 32) << 2);
-            continue;
-        }
-        detail::write_planes(at, n, tree, f32);
-        meta = n.axis | (n.single ? 4u : 0u) | (pl.link[i] << 3);
-    }
+    std::atomic<bool> single{false};
+    exec.parallel_for(0, tree.nodes.size(), 1u << 16, [&](std::size_t lo, std::size_t hi) {
+        if (detail::write_nodes(w, tree, elements, payload, pl, f32, lo, hi)) single = true;
+    });
+    detail::write_header(w, tree, cfg, P::kind, single.load());
     return w;
+}
+
+/// Encodes on the calling thread.
+template <Bounded E, class P>
+    requires PayloadEncoder<P, E>
+std::vector<std::uint32_t> encode(const Tree& tree, std::span<const E> elements, const P& payload,
+                                  const EncodeConfig& cfg = {}) {
+    SerialExecutor serial;
+    return encode(tree, elements, payload, cfg, serial);
 }
 
 /// Size in bytes of an encoding.
