@@ -48,7 +48,7 @@ void describe_configs(Report& report) {
                                "RangePayload; bih::first_hit / all_hits(words, tree, spheres) (elements via tree.order)");
     report.describe("float32", "as fixed16 with NodeFormat::Float32");
     report.describe("fixed16-leaf4", "bih::Config{max_leaf_elements = 4, trim_leaves = false}; otherwise as fixed16");
-    report.describe("fixed16-query", "bih::Config::for_queries() (up to 16 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
+    report.describe("fixed16-query", "bih::Config::for_queries() (up to 32 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
                              "TreeChunks, 2}, RangePayload; bih::LeafRecords (spheres in leaf order, 16-byte records, "
                              "tested four at a time); bih::first_hit / all_hits(words, records)");
 }

@@ -223,14 +223,14 @@ TEST_CASE("the builder makes the same trees as the reference implementation (gol
     }
 }
 
-TEST_CASE("Config::for_queries: leaves of up to 16 elements, no trim chains", "[bih][build]") {
+TEST_CASE("Config::for_queries: leaves of up to 32 elements, no trim chains", "[bih][build]") {
     auto elems = testing::random_boxes(20000, 26);
     bih::Config cfg = bih::Config::for_queries();
     bih::Tree t = bih::build(std::span<const BoxElement>(elems), cfg);
     check_structure(t, elems, cfg);
-    CHECK(t.stats.max_leaf_elements <= 16);
-    CHECK(t.stats.leaves * 16 >= elems.size());
-    CHECK(t.stats.nodes < elems.size() / 4);  // the default tree has ~5 nodes an element
+    CHECK(t.stats.max_leaf_elements <= 32);
+    CHECK(t.stats.leaves * 32 >= elems.size());
+    CHECK(t.stats.nodes < elems.size() / 8);  // the default tree has ~5 nodes an element
     CHECK(t.stats.percent_single_child() < 5.0);
 }
 
