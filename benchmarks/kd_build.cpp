@@ -17,7 +17,10 @@
 //              of subvolumes, for the shallow and deep trees.
 //  * replay    a sequence of transfer functions (alpha > 0 decides occupancy): kdtree::Rebuilder
 //              (and vk::KdRebuilder on the device) against a fresh build of the same tree, the two
-//              timed side by side for every function; rebuild / fresh ratio.
+//              timed side by side for every function; rebuild / fresh ratio, the rebuild's phases
+//              (classification table and block verdicts, occupancy pass, splitting), the % of
+//              8^3 blocks whose voxels were read, and the one-time preparation (block order and
+//              value ranges) the rebuilder did at construction.
 //  * gpu       the local-box pass on the Vulkan device (lavapipe here) against the host pass
 //              (kdtree::local_boxes on 1 and 2 threads), timed side by side.
 // Times are medians of --runs runs after a warm-up (the machine is shared: medians of several
@@ -323,7 +326,8 @@ kdtree::Tree fresh_build(const V& vol, const volume::TransferFunction& tf, const
 
 /// Side-by-side medians of the replay for one rebuilder and config.
 struct ReplayResult {
-    std::vector<double> rebuild, fresh, ratio, classify, occupancy, split;
+    std::vector<double> rebuild, fresh, ratio, classify, occupancy, split, read;
+    double prepare_ms = 0;
 };
 
 template <class V, class R, Executor X>
@@ -349,13 +353,19 @@ ReplayResult replay(const V& vol, R& rebuilder, const kdtree::Config& cfg, X& ex
             res.classify.push_back(rebuilder.timings().classify_ms);
             res.occupancy.push_back(rebuilder.timings().occupancy_ms);
             res.split.push_back(rebuilder.timings().split_ms);
+            uvec3 nb = kdtree::block_counts(vol.dims);
+            res.read.push_back(100.0 * double(rebuilder.timings().blocks_read) / double(std::size_t{nb.x} * nb.y * nb.z));
         }
+    res.prepare_ms = rebuilder.prepare_ms();
     return res;
 }
 
 void print_replay(const Case& c, const std::string& impl, const ReplayResult& r, Report& rep) {
-    std::printf("  %-34s %9.2f %9.2f %8.3f %9.3f %9.2f %9.2f\n", impl.c_str(), median(r.rebuild), median(r.fresh),
-                median(r.ratio), median(r.classify), median(r.occupancy), median(r.split));
+    std::printf("  %-30s %9.2f %9.2f %8.3f %9.3f %9.2f %9.2f %7.1f %9.1f\n", impl.c_str(), median(r.rebuild),
+                median(r.fresh), median(r.ratio), median(r.classify), median(r.occupancy), median(r.split), median(r.read),
+                r.prepare_ms);
+    rep.add(c.name, "replay/" + impl, "blocks_read", median(r.read), "%");
+    rep.add(c.name, "replay/" + impl, "prepare_once_ms", r.prepare_ms, "ms");
     rep.add(c.name, "replay/" + impl, "rebuild_ms", median(r.rebuild), "ms");
     rep.add(c.name, "replay/" + impl, "fresh_ms", median(r.fresh), "ms");
     rep.add(c.name, "replay/" + impl, "rebuild_over_fresh", median(r.ratio), "x");
@@ -384,8 +394,8 @@ void section_replay(const Case& c, const V& vol, const Options& o, Report& rep) 
     int runs = replay_runs(c, o);
     std::printf("  replay of %zu transfer functions x %d runs, medians (rebuild and fresh build timed side by side)\n",
                 replay_tfs().size(), runs);
-    std::printf("  %-34s %9s %9s %8s %9s %9s %9s\n", "rebuilder / tree / threads", "rebuild", "fresh", "ratio",
-                "table.ms", "occup.ms", "split.ms");
+    std::printf("  %-30s %9s %9s %8s %9s %9s %9s %7s %9s\n", "rebuilder / tree / threads", "rebuild", "fresh", "ratio",
+                "class.ms", "occup.ms", "split.ms", "read%", "prep.ms");
     for (auto [tree, cfg] : {std::pair{"binned deep", kdtree::Config::deep().binned()},
                              std::pair{"binned shallow", kdtree::Config::shallow().binned()},
                              std::pair{"psvt32 deep", kdtree::Config::deep()},

@@ -192,6 +192,42 @@ TEST_CASE("a volume cut into several slabs gives the same boxes", "[parity][kd]"
     }
 }
 
+TEST_CASE("block verdicts let the device skip blocks, words unchanged", "[parity][kd]") {
+    vk::Context ctx = vk::Context::create();
+    SerialExecutor serial;
+    for (auto type : {volume::ScalarType::U8, volume::ScalarType::U16, volume::ScalarType::F32}) {
+        volume::Volume v = random_volume({37, 29, 21}, type, 21, 0.3);
+        std::size_t bytes = volume::scalar_bytes(type);
+        for (std::size_t i = 0; i < v.voxels(); ++i) {  // constant blocks (0, 0.5, 1) beside random ones
+            std::uint32_t x = i % 37, y = (i / 37) % 29, z = i / (37 * 29), block = x / 8 + 5 * (y / 8 + 4 * (z / 8));
+            if (block % 3 == 0) continue;
+            volume::Volume level = random_volume({1, 1, 1}, type, 0, block % 3 == 1 ? 0.0 : 1.0);
+            if (block % 4 == 0) std::memset(&level.bytes[0], 0, bytes);
+            std::memcpy(&v.bytes[i * bytes], level.bytes.data(), bytes);
+        }
+        kdtree::BoxSource s = kdtree::BoxSource::of(v);
+        kdtree::BlockValues values;
+        kdtree::block_values(s, serial, values);
+        vk::LocalBoxPass pass(ctx, v);
+        for (float th : {0.2f, 0.5f, 0.95f}) {
+            INFO(volume::scalar_name(type) << ", threshold " << th);
+            volume::DensityThreshold c{th};
+            kdtree::BoxClassifier bc = kdtree::box_classifier(s, c);
+            std::vector<std::uint8_t> table, verdicts;
+            std::vector<std::uint32_t> scratch, all, skipping;
+            if (s.source != SYLVA_KD_BOX_SOURCE_F32) kdtree::value_table(s, c, table);
+            kdtree::block_verdicts(s, values, c, table, scratch, verdicts);
+            CHECK(std::count(verdicts.begin(), verdicts.end(), kdtree::kBlockRead) < std::ptrdiff_t(verdicts.size()));
+            pass.block_words(bc, all);
+            pass.block_words(bc, skipping, verdicts);
+            REQUIRE(skipping == all);
+            REQUIRE(skipping == kdtree::reference_block_words(s, bc, 1, verdicts));
+            pass.block_words(bc, all);  // back to reading every block
+            REQUIRE(skipping == all);
+        }
+    }
+}
+
 TEST_CASE("binned trees from device boxes equal those from host boxes", "[parity][kd]") {
     vk::Context ctx = vk::Context::create();
     ThreadPool pool(2);
@@ -231,6 +267,7 @@ TEST_CASE("vk::KdRebuilder gives kdtree::Rebuilder's trees over a replay", "[par
             CHECK(a.leaves == b.leaves);
             CHECK(a.stats.occupied == b.stats.occupied);
             CHECK(gpu.pass_timings().readback_ms >= 0.0);
+            CHECK(gpu.timings().blocks_read == host.timings().blocks_read);
         }
     }
 }

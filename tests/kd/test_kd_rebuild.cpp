@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <random>
 
 #include <sylva/core/executor.hpp>
 #include <sylva/kdtree/build_binned.hpp>
@@ -180,6 +181,91 @@ TEST_CASE("rebuild: no opaque entry gives an empty tree, all opaque the whole gr
         // the per-voxel verdict of min_alpha: 0.5 drops the voxels that constant alpha 0.5 has
         CHECK(r.rebuild(constant_alpha(0.5f), 0.5f).nodes.empty());
         CHECK(r.rebuild(constant_alpha(0.5f), 0.25f).stats.occupied == g.values.size());
+    }
+}
+
+TEST_CASE("rebuild: block value ranges decide blocks without reading them", "[kd][rebuild]") {
+    volume::DensityGrid g = test_grid();
+    SerialExecutor serial;
+    std::size_t blocks = std::size_t{6 * 5 * 4};
+    for (auto type : {volume::ScalarType::U8, volume::ScalarType::U16, volume::ScalarType::F32}) {
+        INFO(volume::scalar_name(type));
+        volume::Volume v = volume_of(g, type);
+        kdtree::Rebuilder r(v, Config::deep().binned(), serial);
+        CHECK(r.prepare_ms() > 0.0);
+        r.rebuild(constant_alpha(0.0f));
+        CHECK(r.timings().blocks_read == 0u);  // every block empty by its range
+        r.rebuild(volume::DensityThreshold{0.0f});
+        CHECK(r.timings().blocks_read == 0u);  // every block full by its range
+        Tree t = r.rebuild(TransferFunction::ramp(0.5f, 0.6f, vec4(1.0f)));
+        CHECK(r.timings().blocks_read > 0u);
+        CHECK(r.timings().blocks_read < blocks);
+        CHECK(t.stats.occupied > 0u);
+        // a classifier the ranges cannot decide for float voxels reads every block
+        auto band = [](float d) { return d > 0.5f; };
+        require_same_tree(r.rebuild(band), fresh_build(v, band, Config::deep().binned(), serial));
+        if (type == volume::ScalarType::F32) CHECK(r.timings().blocks_read == blocks);
+    }
+}
+
+namespace {
+
+/// Voxels in runs of equal values (whole blocks constant, some blocks mixed), raw values across
+/// the type's range (float32: [-3, 6] around the range [-2, 5], one infinity in grids).
+volume::Volume blocky_volume(volume::Dims d, volume::ScalarType type, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    volume::DensityGrid g{d, vec3(1.0f), std::vector<float>(std::size_t{d.x} * d.y * d.z)};
+    for (std::uint32_t z = 0; z < d.z; ++z)
+        for (std::uint32_t y = 0; y < d.y; ++y)
+            for (std::uint32_t x = 0; x < d.x; ++x) {
+                std::uint32_t block = (x / 8) * 7 + (y / 8) * 13 + (z / 8) * 29;
+                float level = float(block % 5) / 4.0f;  // constant blocks of 0, 0.25, .. 1
+                g.values[volume::voxel_index(d, x, y, z)] = (block % 3 == 0) ? u(rng) : level;
+            }
+    return volume_of(g, type);
+}
+
+/// The words of a full pass and of the verdict-driven pass must agree.
+template <class Source, class C>
+void check_verdicts(const Source& src, const volume::Volume* v, const C& classify) {
+    SerialExecutor serial;
+    kdtree::BoxSource s = kdtree::BoxSource::of(*v);
+    kdtree::BlockValues values;
+    kdtree::block_values(s, serial, values);
+    std::vector<std::uint8_t> table, verdicts;
+    std::vector<std::uint32_t> scratch, full, skipping;
+    if (s.source != SYLVA_KD_BOX_SOURCE_F32) kdtree::value_table(s, classify, table);
+    kdtree::block_verdicts(s, values, classify, table, scratch, verdicts);
+    kdtree::block_words(src, serial, full);
+    kdtree::block_words(src, verdicts, serial, skipping);
+    REQUIRE(full == skipping);
+    for (std::size_t b = 0; b < full.size(); ++b) {  // decided blocks: their words say so
+        if (verdicts[b] == kdtree::kBlockEmpty) REQUIRE(full[b] == 0u);
+        if (verdicts[b] != kdtree::kBlockFull) continue;
+        uvec3 c(b % 5, (b / 5) % 4, b / 20);  // 37x29x21: 5x4x3 blocks
+        VoxelBox block{c * 8u, glm::min(c * 8u + 8u, uvec3(37u, 29u, 21u))};
+        REQUIRE(kdtree::block_word_box(c, full[b]) == block);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("rebuild: verdict-driven block words equal a full pass", "[kd][rebuild]") {
+    std::vector<volume::TransferFunctionAlpha> tfs{
+        volume::TransferFunctionAlpha(TransferFunction::ramp(0.3f, 0.6f, vec4(1.0f))),
+        volume::TransferFunctionAlpha(TransferFunction({{0.2f, vec4(0.0f)}, {0.25f, vec4(0.5f)}, {0.3f, vec4(0.0f)}})),
+        volume::TransferFunctionAlpha(TransferFunction::ct_bone_tissue(), 1e-6f),
+        volume::TransferFunctionAlpha(constant_alpha(0.0f)), volume::TransferFunctionAlpha(constant_alpha(1.0f))};
+    std::uint32_t seed = 1;
+    for (auto type : {volume::ScalarType::U8, volume::ScalarType::U16, volume::ScalarType::F32}) {
+        volume::Volume v = blocky_volume({37, 29, 21}, type, seed++);
+        INFO(volume::scalar_name(type));
+        for (const auto& tf : tfs) check_verdicts(volume::classified(v, tf), &v, tf);
+        for (float th : {0.0f, 0.25f, 0.5f, 0.99f, 1.0f, 1.5f})
+            check_verdicts(volume::classified(v, volume::DensityThreshold{th}), &v, volume::DensityThreshold{th});
+        auto band = [](float d) { return d > 0.2f && d < 0.6f; };
+        check_verdicts(volume::classified(v, band), &v, band);
     }
 }
 

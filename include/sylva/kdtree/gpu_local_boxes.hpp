@@ -21,9 +21,11 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <span>
 #include <string>
 #include <type_traits>
@@ -316,13 +318,18 @@ inline std::vector<std::uint32_t> slab_words(const BoxSource& s, std::uint32_t z
 }
 
 /// The shared code of shaders/kd_local_boxes.comp run on the host, one slab of `layers` block
-/// layers at a time: the words the device must produce.
+/// layers at a time: the words the device must produce (blocks decided by `verdicts`, one byte
+/// a block, where given; every block read otherwise).
 inline std::vector<std::uint32_t> reference_block_words(const BoxSource& s, const BoxClassifier& c,
-                                                        std::uint32_t layers = 1) {
+                                                        std::uint32_t layers = 1,
+                                                        std::span<const std::uint8_t> verdicts = {}) {
     uvec3 nb = block_counts(s.dims);
     std::vector<std::uint32_t> words(std::size_t{nb.x} * nb.y * nb.z);
     std::array<std::uint32_t, SYLVA_KD_BOX_PARAM_WORDS> params = box_params(s, c);
     shared::Words pw{params.data(), params.size()}, lut{c.lut.data(), c.lut.size()}, alphas{c.alphas.data(), c.alphas.size()};
+    std::vector<std::uint32_t> vw((words.size() + 3) / 4, 0u);  // all zero: read every block
+    if (!verdicts.empty()) std::memcpy(vw.data(), verdicts.data(), std::min(verdicts.size(), words.size()));
+    shared::Words vwords{vw.data(), vw.size()};
     for (std::uint32_t bz0 = 0; bz0 < nb.z; bz0 += layers) {
         std::uint32_t bz1 = std::min(nb.z, bz0 + layers);
         std::vector<std::uint32_t> slab = slab_words(s, bz0 * 8u, std::min(s.dims.z, bz1 * 8u));
@@ -330,11 +337,204 @@ inline std::vector<std::uint32_t> reference_block_words(const BoxSource& s, cons
         shared::SylvaKdBoxParams p = shared::sylva_kd_box_params(pw, bz0 * 8u);
         for (std::uint32_t bz = bz0; bz < bz1; ++bz)
             for (std::uint32_t by = 0; by < nb.y; ++by)
-                for (std::uint32_t bx = 0; bx < nb.x; ++bx)
-                    words[bx + std::size_t{nb.x} * (by + std::size_t{nb.y} * bz)] =
-                        shared::sylva_kd_box_block(voxels, lut, alphas, p, uvec3(bx, by, bz));
+                for (std::uint32_t bx = 0; bx < nb.x; ++bx) {
+                    std::size_t i = bx + std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
+                    words[i] = shared::sylva_kd_box_decide(voxels, lut, alphas, vwords, p, uvec3(bx, by, bz),
+                                                           static_cast<std::uint32_t>(i));
+                }
     }
     return words;
+}
+
+// ---- block value ranges: the blocks a rebuild can decide without reading them ------------------
+
+/// What one classification-independent pass learnt about every 8^3 block's raw values (Zellmann
+/// et al. section 5 compare against OSPRay's min-max grid; here the ranges only let a rebuild
+/// skip blocks, the boxes stay exact).
+struct BlockValues {
+    std::vector<float> lo, hi;      ///< smallest / largest raw value (integers are exact in float)
+    std::vector<std::uint8_t> bad;  ///< 1: the block holds a bad float value (NaN; any non-finite in volumes)
+    [[nodiscard]] std::size_t size() const { return lo.size(); }
+};
+
+/// Verdicts of block_verdicts, one byte a block.
+inline constexpr std::uint8_t kBlockRead = SYLVA_KD_BOX_READ;    ///< some values occupied, some not: read it
+inline constexpr std::uint8_t kBlockEmpty = SYLVA_KD_BOX_EMPTY;  ///< no value of its range is occupied
+inline constexpr std::uint8_t kBlockFull = SYLVA_KD_BOX_FULL;    ///< every value of its range is: all its voxels are
+
+namespace detail {
+
+template <class T>
+bool bad_value(T v, bool any_nonfinite) {
+    if constexpr (std::is_same_v<T, float>) return any_nonfinite ? !std::isfinite(v) : std::isnan(v);
+    else return false;
+}
+
+/// The value ranges of the row of blocks (by, bz).
+template <class T>
+void block_row_values(const BoxSource& s, uvec3 nb, std::uint32_t by, std::uint32_t bz, BlockValues& out) {
+    const T* data = reinterpret_cast<const T*>(s.bytes.data());
+    std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
+    for (std::uint32_t z = bz * 8u; z < std::min(s.dims.z, bz * 8u + 8u); ++z)
+        for (std::uint32_t y = by * 8u; y < std::min(s.dims.y, by * 8u + 8u); ++y) {
+            const T* row = data + volume::voxel_index(s.dims, 0, y, z);
+            for (std::uint32_t bx = 0; bx < nb.x; ++bx) {
+                float lo = out.lo[first + bx], hi = out.hi[first + bx];
+                for (std::uint32_t x = bx * 8u; x < std::min(s.dims.x, bx * 8u + 8u); ++x) {
+                    T v = row[x];
+                    if (bad_value(v, s.normalise)) {
+                        out.bad[first + bx] = 1;
+                        continue;
+                    }
+                    lo = std::min(lo, static_cast<float>(v));
+                    hi = std::max(hi, static_cast<float>(v));
+                }
+                out.lo[first + bx] = lo;
+                out.hi[first + bx] = hi;
+            }
+        }
+}
+
+}  // namespace detail
+
+/// One pass over the raw voxels of `s`: the value range of every block, into `out` (storage
+/// reused), rows of blocks in parallel. Materialised occupancies give ranges of their bytes.
+template <Executor X>
+void block_values(const BoxSource& s, X& exec, BlockValues& out) {
+    uvec3 nb = block_counts(s.dims);
+    std::size_t n = std::size_t{nb.x} * nb.y * nb.z;
+    out.lo.assign(n, std::numeric_limits<float>::infinity());
+    out.hi.assign(n, -std::numeric_limits<float>::infinity());
+    out.bad.assign(n, 0);
+    exec.parallel_for(0, std::size_t{nb.y} * nb.z, 1, [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t r = lo; r < hi; ++r) {
+            auto by = static_cast<std::uint32_t>(r % nb.y), bz = static_cast<std::uint32_t>(r / nb.y);
+            if (s.source == SYLVA_KD_BOX_SOURCE_U8) detail::block_row_values<std::uint8_t>(s, nb, by, bz, out);
+            else if (s.source == SYLVA_KD_BOX_SOURCE_U16) detail::block_row_values<std::uint16_t>(s, nb, by, bz, out);
+            else detail::block_row_values<float>(s, nb, by, bz, out);
+        }
+    });
+}
+
+namespace detail {
+
+/// Density of a raw float value as the classified sources compute it (monotone in the value).
+inline float box_density(const BoxSource& s, float x) {
+    return s.normalise ? volume::detail::normalised(x, s.range_lo, s.range_inv) : x;
+}
+
+/// TransferFunction::at's entry index of density d (monotone in d).
+inline std::size_t tf_index(float d, std::size_t entries) {
+    float x = (d > 0.0f ? std::min(d, 1.0f) : 0.0f) * static_cast<float>(entries - 1);
+    return std::min(static_cast<std::size_t>(x), entries - 2);
+}
+
+/// Float voxels under a transfer function: empty where every entry the block's density range
+/// interpolates between has alpha exactly 0 (then every lookup is 0 + 0 f = 0, never above
+/// min_alpha); never full (interpolation rounds).
+inline void tf_verdicts(const BoxSource& s, const BlockValues& v, const volume::TransferFunctionAlpha& c,
+                        std::vector<std::uint32_t>& nonzero, std::vector<std::uint8_t>& out) {
+    const auto& e = c.transfer_function().entries();
+    nonzero.assign(e.size() + 1, 0u);
+    for (std::size_t i = 0; i < e.size(); ++i) nonzero[i + 1] = nonzero[i] + (e[i].a != 0.0f ? 1u : 0u);
+    for (std::size_t b = 0; b < v.size(); ++b) {
+        if (v.bad[b]) continue;
+        std::size_t i0 = tf_index(box_density(s, v.lo[b]), e.size()), i1 = tf_index(box_density(s, v.hi[b]), e.size()) + 1;
+        if (nonzero[i1 + 1] == nonzero[i0]) out[b] = kBlockEmpty;
+    }
+}
+
+}  // namespace detail
+
+/// The verdict of every block under a classification, into `out` (one byte a block, storage
+/// reused): kBlockEmpty or kBlockFull where the block's value range decides it, else
+/// kBlockRead. Exact for integer voxels (through `table`, the per-value verdicts of
+/// value_table: occupied values counted by a prefix sum in `scratch`), for float voxels under
+/// volume::DensityThreshold (density is monotone in the raw value) and, for empty blocks only,
+/// under volume::TransferFunctionAlpha; other float classifiers read every block. Blocks with
+/// bad values are always read, so their error surfaces as in a fresh build.
+template <volume::VoxelClassifier C>
+void block_verdicts(const BoxSource& s, const BlockValues& v, const C& classify, const std::vector<std::uint8_t>& table,
+                    std::vector<std::uint32_t>& scratch, std::vector<std::uint8_t>& out) {
+    out.assign(v.size(), kBlockRead);
+    if (s.source != SYLVA_KD_BOX_SOURCE_F32) {
+        scratch.assign(table.size() + 1, 0u);
+        for (std::size_t i = 0; i < table.size(); ++i) scratch[i + 1] = scratch[i] + table[i];
+        for (std::size_t b = 0; b < v.size(); ++b) {
+            auto lo = static_cast<std::uint32_t>(v.lo[b]), hi = static_cast<std::uint32_t>(v.hi[b]);
+            std::uint32_t occupied = scratch[hi + 1] - scratch[lo];
+            out[b] = occupied == 0 ? kBlockEmpty : (occupied == hi - lo + 1 ? kBlockFull : kBlockRead);
+        }
+    } else if constexpr (std::is_same_v<C, volume::DensityThreshold>) {
+        for (std::size_t b = 0; b < v.size(); ++b) {
+            if (v.bad[b]) continue;
+            if (!(detail::box_density(s, v.hi[b]) >= classify.min_density)) out[b] = kBlockEmpty;
+            else if (detail::box_density(s, v.lo[b]) >= classify.min_density) out[b] = kBlockFull;
+        }
+    } else if constexpr (std::is_same_v<C, volume::TransferFunctionAlpha>) {
+        detail::tf_verdicts(s, v, classify, scratch, out);
+    }
+}
+
+/// The block word of a block whose every voxel is occupied.
+inline std::uint32_t full_block_word(volume::Dims dims, uvec3 b) { return shared::sylva_kd_box_full_word(uvec3(dims), b); }
+
+namespace detail {
+
+/// Words of the row of blocks (by, bz) under `verdicts`: decided blocks without reading, runs of
+/// blocks to read as sub-rows of the grid.
+template <volume::OccupancySource S>
+void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, const std::uint8_t* verdicts,
+                     std::vector<std::uint8_t>& row, std::vector<BlockAccumulator>& acc, std::uint32_t* words) {
+    volume::Dims d = src.dims;
+    std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
+    for (std::uint32_t bx = 0; bx < nb.x;) {
+        std::uint8_t v = verdicts[first + bx];
+        if (v != kBlockRead) {
+            words[first + bx] = v == kBlockFull ? full_block_word(d, uvec3(bx, by, bz)) : 0u;
+            ++bx;
+            continue;
+        }
+        std::uint32_t end = bx + 1;
+        while (end < nb.x && verdicts[first + end] == kBlockRead) ++end;
+        std::uint32_t x0 = bx * 8u, x1 = std::min(d.x, end * 8u);
+        std::fill(acc.begin(), acc.begin() + (end - bx), BlockAccumulator{});
+        for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
+            for (std::uint32_t y = by * 8u; y < std::min(d.y, by * 8u + 8u); ++y) {
+                src.row(x0, x1, y, z, row.data());
+                for (std::uint32_t k = 0; k < end - bx; ++k) {
+                    std::uint32_t m = row_mask(row.data() + k * 8u, std::min(8u, x1 - x0 - k * 8u));
+                    if (!m) continue;
+                    acc[k].x |= m;
+                    acc[k].y |= 1u << (y & 7u);
+                    acc[k].z |= 1u << (z & 7u);
+                    acc[k].count += static_cast<std::uint32_t>(std::popcount(m));
+                }
+            }
+        for (std::uint32_t k = 0; k < end - bx; ++k)
+            words[first + bx + k] = shared::sylva_kd_box_word(acc[k].x, acc[k].y, acc[k].z, acc[k].count, false);
+        bx = end;
+    }
+}
+
+}  // namespace detail
+
+/// block_words reading only the blocks whose verdict (block_verdicts) is kBlockRead: the same
+/// words as block_words(src, exec, words) when the verdicts come from `src`'s classification.
+template <volume::OccupancySource S, Executor X>
+void block_words(const S& src, const std::vector<std::uint8_t>& verdicts, X& exec, std::vector<std::uint32_t>& words) {
+    uvec3 nb = block_counts(src.dims);
+    if (verdicts.size() != std::size_t{nb.x} * nb.y * nb.z)
+        throw Error("kdtree: " + std::to_string(verdicts.size()) + " block verdicts for a grid of " +
+                    std::to_string(std::size_t{nb.x} * nb.y * nb.z) + " blocks");
+    words.resize(verdicts.size());
+    exec.parallel_for(0, std::size_t{nb.y} * nb.z, 1, [&](std::size_t lo, std::size_t hi) {
+        std::vector<std::uint8_t> row(src.dims.x);
+        std::vector<detail::BlockAccumulator> acc(nb.x);
+        for (std::size_t r = lo; r < hi; ++r)
+            detail::block_row_words(src, nb, static_cast<std::uint32_t>(r % nb.y), static_cast<std::uint32_t>(r / nb.y),
+                                    verdicts.data(), row, acc, words.data());
+    });
 }
 
 }  // namespace sylva::kdtree

@@ -13,6 +13,10 @@
 //  * binned trees (Config::planes == Planes::Binned, Zellmann section 4.3): the Morton order of
 //    the 8^3 blocks (kdtree::BlockOrder, computed once), the dense block words and the
 //    local-box arrays (cleared, capacity kept), so the boxes come out sorted without a sort;
+//    and the value range of every block (kdtree::BlockValues, one pass at construction): a
+//    rebuild decides each block from its range first (block_verdicts: no occupied value in
+//    the range -> empty, every value occupied -> full) and reads only the others, which in
+//    sparse volumes are few;
 //  * every other tree (Planes::Step, Vidal's planes): the 32^3 partial SVTs of Zellmann's
 //    multi-core builder (section 4.1), reassigned in place; the tree equals Vidal's serial one.
 // rebuild(c) returns exactly the tree the fresh builders give for the same classifier:
@@ -26,6 +30,7 @@
 #ifndef SYLVA_KDTREE_REBUILD_HPP
 #define SYLVA_KDTREE_REBUILD_HPP
 
+#include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -48,9 +53,10 @@ namespace sylva::kdtree {
 
 /// Where the time of one rebuild went (milliseconds).
 struct RebuildTimings {
-    double classify_ms = 0.0;   ///< the per-value table of an integer volume (0 for float voxels)
+    double classify_ms = 0.0;   ///< the per-value table of an integer volume, binned: block verdicts
     double occupancy_ms = 0.0;  ///< local boxes or partial SVTs: reading and classifying the volume
     double split_ms = 0.0;      ///< node splitting
+    std::size_t blocks_read = 0;  ///< binned: 8^3 blocks whose voxels were read (the others were decided by their value range)
     [[nodiscard]] double total_ms() const { return classify_ms + occupancy_ms + split_ms; }
 };
 
@@ -108,13 +114,17 @@ public:
     template <volume::VoxelClassifier C>
     Tree rebuild(const C& classify) {
         timings_ = RebuildTimings{};
-        if (volume_ && source_.source != SYLVA_KD_BOX_SOURCE_F32) {
-            auto t0 = std::chrono::steady_clock::now();
-            value_table(source_, classify, table_);
-            timings_.classify_ms = detail::ms_since(t0);
+        auto t0 = std::chrono::steady_clock::now();
+        bool integer = volume_ && source_.source != SYLVA_KD_BOX_SOURCE_F32;
+        if (integer) value_table(source_, classify, table_);
+        if (cfg_.planes == Planes::Binned) {
+            block_verdicts(source_, values_, classify, table_, scratch_, verdicts_);
+            timings_.blocks_read = static_cast<std::size_t>(std::count(verdicts_.begin(), verdicts_.end(), kBlockRead));
+        }
+        timings_.classify_ms = detail::ms_since(t0);
+        if (integer)
             return build_from(detail::TableRows{source_.dims, source_.spacing, source_.bytes.data(), source_.source,
                                                 table_.data()});
-        }
         if (volume_) return build_from(volume::ClassifiedVolume<C>(*volume_, classify));
         return build_from(volume::ClassifiedGrid<C>(*grid_, classify));
     }
@@ -126,11 +136,19 @@ public:
         if (cfg.planes == Planes::Binned && (cfg.raster == 0 || cfg.raster % LocalBoxes::block != 0))
             throw Error("kdtree: the binned builder's raster must be a multiple of the 8-voxel block");
         cfg_ = cfg;
-        if (cfg_.planes == Planes::Binned && order_.size() == 0) order_ = BlockOrder::of(source_.dims);
+        if (cfg_.planes == Planes::Binned && order_.size() == 0) {
+            auto t0 = std::chrono::steady_clock::now();
+            order_ = BlockOrder::of(source_.dims);
+            block_values(source_, *exec_, values_);
+            prepare_ms_ = detail::ms_since(t0);
+        }
     }
     [[nodiscard]] const Config& config() const { return cfg_; }
     /// Phases of the last rebuild.
     [[nodiscard]] const RebuildTimings& timings() const { return timings_; }
+    /// The classification-independent preparation of binned rebuilds (block order and value
+    /// ranges), milliseconds; 0 before the first binned config.
+    [[nodiscard]] double prepare_ms() const { return prepare_ms_; }
     /// Binned trees: the local boxes of the last rebuild.
     [[nodiscard]] const LocalBoxes& local_boxes() const { return boxes_; }
     /// What the device pass reads (kdtree/gpu_local_boxes.hpp, vulkan/kd_build.hpp).
@@ -142,7 +160,7 @@ private:
         auto t0 = std::chrono::steady_clock::now();
         Tree t;
         if (cfg_.planes == Planes::Binned) {
-            block_words(src, *exec_, words_);
+            block_words(src, verdicts_, *exec_, words_);
             gather_local_boxes(words_, order_, source_.spacing, boxes_);
             timings_.occupancy_ms = detail::ms_since(t0);
             t = build(boxes_, cfg_, *exec_);
@@ -164,6 +182,10 @@ private:
     RebuildTimings timings_;
     std::vector<std::uint8_t> table_;
     BlockOrder order_;
+    BlockValues values_;
+    double prepare_ms_ = 0.0;
+    std::vector<std::uint32_t> scratch_;
+    std::vector<std::uint8_t> verdicts_;
     std::vector<std::uint32_t> words_;
     LocalBoxes boxes_;
     volume::PartialSvt<32> psvt_;

@@ -18,6 +18,9 @@
 //   alphas  SYLVA_KD_BOX_CLASSIFY_ALPHA: the transfer function's alpha entries as float bits
 //           (TransferFunction::entries()[i].a, not the 8-bit GPU table: the host classifier
 //           TransferFunctionAlpha interpolates the float entries, and so does this pass)
+//   verdicts one byte a block (block i: word i >> 2, bits 8 (i & 3) ..), what the block's value
+//           range decides (kdtree::block_verdicts): SYLVA_KD_BOX_READ (0: read the voxels),
+//           _EMPTY (no voxel occupied) or _FULL (every voxel occupied); all zero reads every block
 //   params  SYLVA_KD_BOX_PARAM_WORDS words, at word offsets:
 //           0-2 grid dimensions x, y, z     3 source (SYLVA_KD_BOX_SOURCE_*)
 //           4   classify (SYLVA_KD_BOX_CLASSIFY_*)
@@ -47,6 +50,9 @@
 #define SYLVA_KD_BOX_PARAM_WORDS 10u
 #define SYLVA_KD_BOX_BAD 0x80000000u
 #define SYLVA_KD_BOX_COUNT_SHIFT 18u
+#define SYLVA_KD_BOX_READ 0u
+#define SYLVA_KD_BOX_EMPTY 1u
+#define SYLVA_KD_BOX_FULL 2u
 
 SYLVA_BEGIN_NAMESPACE
 
@@ -218,6 +224,26 @@ SYLVA_FN uint sylva_kd_box_block(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(al
         }
     }
     return sylva_kd_box_word(mx, my, mz, count, bad);
+}
+
+/// The block word of block `b` when every one of its voxels is occupied (edge blocks clipped).
+SYLVA_FN uint sylva_kd_box_full_word(uvec3 dims, uvec3 b) {
+    uvec3 n = uvec3(min(8u, dims.x - b.x * 8u), min(8u, dims.y - b.y * 8u), min(8u, dims.z - b.z * 8u));
+    return sylva_kd_box_word((1u << n.x) - 1u, (1u << n.y) - 1u, (1u << n.z) - 1u, n.x * n.y * n.z, false);
+}
+
+/// The verdict of block `i` (byte i of `verdicts`): SYLVA_KD_BOX_READ, _EMPTY or _FULL.
+SYLVA_FN uint sylva_kd_box_verdict(SYLVA_BUF(verdicts), uint i) {
+    return (SYLVA_LOAD(verdicts, i >> 2u) >> ((i & 3u) * 8u)) & 255u;
+}
+
+/// The word of block `b` (linear index i): decided by its verdict, else read.
+SYLVA_FN uint sylva_kd_box_decide(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(alphas), SYLVA_BUF(verdicts),
+                                  SylvaKdBoxParams p, uvec3 b, uint i) {
+    uint v = sylva_kd_box_verdict(SYLVA_PASS_BUF(verdicts), i);
+    if (v == SYLVA_KD_BOX_EMPTY) return 0u;
+    if (v == SYLVA_KD_BOX_FULL) return sylva_kd_box_full_word(p.dims, b);
+    return sylva_kd_box_block(SYLVA_PASS_BUF(voxels), SYLVA_PASS_BUF(lut), SYLVA_PASS_BUF(alphas), p, b);
 }
 
 /// Fields of a block word: local box corners (lo, hi - 1, each 0..7) and the count.

@@ -16,7 +16,9 @@
 // layers that each fit one storage-buffer binding (lavapipe: 128 MiB), so any volume whose
 // single block layer fits works; each pass re-uploads only the classification (a per-value
 // bit table for integer voxels, the threshold or the transfer function's alpha entries for
-// float voxels) and dispatches once per slab.
+// float voxels) and dispatches once per slab. vk::KdRebuilder also sends every block's verdict
+// (kdtree::block_verdicts: what the block's value range decides), so the device reads only the
+// blocks their ranges leave open.
 #ifndef SYLVA_VULKAN_KD_BUILD_HPP
 #define SYLVA_VULKAN_KD_BUILD_HPP
 
@@ -80,7 +82,8 @@ public:
                                                             : ctx.max_storage_buffer_range())),
           blocks_(kdtree::block_counts(s.dims)),
           out_(ctx, checked_block_bytes(ctx, blocks_)),
-          params_(ctx, SYLVA_KD_BOX_PARAM_WORDS * 4) {
+          params_(ctx, SYLVA_KD_BOX_PARAM_WORDS * 4),
+          verdicts_(ctx, std::size_t{blocks_.x} * blocks_.y * blocks_.z) {
         for (std::uint32_t bz0 = 0; bz0 < blocks_.z; bz0 += layers_) {
             std::size_t z0 = std::size_t{bz0} * 8u, z1 = std::min<std::size_t>(s.dims.z, (std::size_t{bz0} + layers_) * 8u);
             slabs_.emplace_back(ctx, (z1 - z0) * s.slice_bytes());
@@ -94,10 +97,14 @@ public:
     LocalBoxPass(Context& ctx, const V& v, LocalBoxPassConfig cfg = {}) : LocalBoxPass(ctx, kdtree::BoxSource::of(v), cfg) {}
 
     /// The dense block words (layout in sylva/shared/kd_local_boxes.h) under `c`, into `out`.
-    void block_words(const kdtree::BoxClassifier& c, std::vector<std::uint32_t>& out) {
+    /// `verdicts` (kdtree::block_verdicts of the same classification, one byte a block) let the
+    /// device skip the blocks their value ranges decide; empty reads every block.
+    void block_words(const kdtree::BoxClassifier& c, std::vector<std::uint32_t>& out,
+                     std::span<const std::uint8_t> verdicts = {}) {
         timings_ = LocalBoxPassTimings{};
         auto t0 = std::chrono::steady_clock::now();
         upload_classifier(c);
+        upload_verdicts(verdicts);
         timings_.upload_ms = detail::kd_ms_since(t0);
         t0 = std::chrono::steady_clock::now();
         Kernel& k = kernel(c.classify);
@@ -117,8 +124,8 @@ public:
 
     /// The Morton-sorted local boxes under `c`, into `out` (storage reused): the LocalBoxes
     /// kdtree::local_boxes computes on the host. The Morton order is computed on first use.
-    void local_boxes(const kdtree::BoxClassifier& c, kdtree::LocalBoxes& out) {
-        block_words(c, words_);
+    void local_boxes(const kdtree::BoxClassifier& c, kdtree::LocalBoxes& out, std::span<const std::uint8_t> verdicts = {}) {
+        block_words(c, words_, verdicts);
         auto t0 = std::chrono::steady_clock::now();
         if (order_.size() == 0) order_ = kdtree::BlockOrder::of(source_.dims);
         kdtree::gather_local_boxes(words_, order_, source_.spacing, out);
@@ -159,6 +166,20 @@ private:
         upload_words(lut_, c.lut);
         upload_words(alphas_, c.alphas);
     }
+    /// Uploads the verdicts, or zeros (read every block) once when none are given.
+    void upload_verdicts(std::span<const std::uint8_t> verdicts) {
+        std::size_t blocks = std::size_t{blocks_.x} * blocks_.y * blocks_.z;
+        if (!verdicts.empty() && verdicts.size() != blocks)
+            throw Error("vk::LocalBoxPass: " + std::to_string(verdicts.size()) + " verdicts for " + std::to_string(blocks) +
+                        " blocks");
+        if (verdicts.empty()) {
+            if (verdicts_set_) verdicts_.fill(0u);
+            verdicts_set_ = false;
+            return;
+        }
+        verdicts_.upload_bytes(std::as_bytes(verdicts));
+        verdicts_set_ = true;
+    }
     /// Keeps a buffer at least as large as `words` (reallocated only to grow) and uploads them.
     void upload_words(std::optional<Buffer>& b, const std::vector<std::uint32_t>& words) {
         if (!b || b->size_bytes() < words.size() * 4) b.emplace(*ctx_, words.size() * 4);
@@ -171,7 +192,7 @@ private:
         if (classify > SYLVA_KD_BOX_CLASSIFY_ALPHA) throw Error("vk::LocalBoxPass: unknown classification");
         std::optional<Kernel>& k = kernels_[classify];
         std::array<std::uint32_t, 2> constants{source_.source, classify};
-        if (!k) k.emplace(*ctx_, spirv::kd_local_boxes, 5, 3 * 4, constants);
+        if (!k) k.emplace(*ctx_, spirv::kd_local_boxes, 6, 3 * 4, constants);
         return *k;
     }
 
@@ -181,7 +202,7 @@ private:
         struct Push {
             std::uint32_t slab_z0, first_layer, layers;
         } push{first * 8u, first, layers};
-        std::array<Buffer*, 5> bind{&slabs_[i], &*lut_, &*alphas_, &params_, &out_};
+        std::array<Buffer*, 6> bind{&slabs_[i], &*lut_, &*alphas_, &params_, &out_, &verdicts_};
         return ctx_->dispatch(kernel, bind, &push, sizeof push,
                               groups_for(std::size_t{blocks_.x} * blocks_.y * layers, 64));
     }
@@ -193,6 +214,8 @@ private:
     std::vector<Buffer> slabs_;
     Buffer out_;
     Buffer params_;
+    Buffer verdicts_;
+    bool verdicts_set_ = false;
     std::optional<Buffer> lut_, alphas_;
     std::array<std::optional<Kernel>, 3> kernels_;
     kdtree::BoxClassifier classifier_;
@@ -223,12 +246,14 @@ public:
     KdRebuilder(Context& ctx, const volume::Volume& v, const kdtree::Config& cfg, X& exec, LocalBoxPassConfig pass_cfg = {})
         : pass_(ctx, kdtree::BoxSource::of(v), pass_cfg), exec_(&exec) {
         set_config(cfg);
+        prepare(kdtree::BoxSource::of(v));
     }
     /// A normalised density grid (classified as it is).
     KdRebuilder(Context& ctx, const volume::DensityGrid& g, const kdtree::Config& cfg, X& exec,
                 LocalBoxPassConfig pass_cfg = {})
         : pass_(ctx, kdtree::BoxSource::of(g), pass_cfg), exec_(&exec) {
         set_config(cfg);
+        prepare(kdtree::BoxSource::of(g));
     }
 
     /// The tree under `tf`: voxels whose alpha exceeds `min_alpha`.
@@ -241,8 +266,10 @@ public:
         timings_ = kdtree::RebuildTimings{};
         auto t0 = std::chrono::steady_clock::now();
         kdtree::assign_box_classifier(pass_.source(), classify, classifier_);
+        kdtree::block_verdicts(pass_.source(), values_, classify, classifier_.table, scratch_, verdicts_);
+        timings_.blocks_read = static_cast<std::size_t>(std::count(verdicts_.begin(), verdicts_.end(), kdtree::kBlockRead));
         timings_.classify_ms = detail::kd_ms_since(t0);
-        pass_.local_boxes(classifier_, boxes_);
+        pass_.local_boxes(classifier_, boxes_, verdicts_);
         timings_.occupancy_ms = pass_.timings().total_ms();
         kdtree::Tree t = kdtree::build(boxes_, cfg_, *exec_);
         timings_.split_ms = t.stats.split_ms;
@@ -264,14 +291,26 @@ public:
     /// The device pass of the last rebuild, phase by phase.
     [[nodiscard]] const LocalBoxPassTimings& pass_timings() const { return pass_.timings(); }
     [[nodiscard]] const kdtree::LocalBoxes& local_boxes() const { return boxes_; }
+    /// The classification-independent preparation (block value ranges), milliseconds.
+    [[nodiscard]] double prepare_ms() const { return prepare_ms_; }
 
 private:
+    void prepare(const kdtree::BoxSource& s) {
+        auto t0 = std::chrono::steady_clock::now();
+        kdtree::block_values(s, *exec_, values_);
+        prepare_ms_ = detail::kd_ms_since(t0);
+    }
+
     LocalBoxPass pass_;
     X* exec_;
     kdtree::Config cfg_;
     kdtree::RebuildTimings timings_;
     kdtree::BoxClassifier classifier_;
     kdtree::LocalBoxes boxes_;
+    kdtree::BlockValues values_;
+    double prepare_ms_ = 0.0;
+    std::vector<std::uint32_t> scratch_;
+    std::vector<std::uint8_t> verdicts_;
 };
 
 }  // namespace sylva::vk
