@@ -376,3 +376,34 @@ TEST_CASE("spheres four at a time decide grazing rays exactly as Sphere::interse
     CHECK(grazing_hits > rays / 10);       // both sides of the rim occur
     CHECK(grazing_hits < rays * 9 / 10);
 }
+
+namespace {
+/// A user element without a default constructor (LeafRecords must copy it, not default it).
+struct PinnedBox {
+    explicit PinnedBox(const Aabb& b) : box(b) {}
+    Aabb box;
+    [[nodiscard]] Aabb bounds() const { return box; }
+    [[nodiscard]] std::optional<Interval> intersect(const Ray& ray, Interval range) const {
+        return clip(ray, box, range);
+    }
+};
+}  // namespace
+
+TEST_CASE("LeafRecords takes element types without a default constructor", "[bih][iter]") {
+    std::vector<PinnedBox> elems;
+    for (const BoxElement& b : testing::random_boxes(500, 63)) elems.emplace_back(b.box);
+    std::span<const PinnedBox> es(elems);
+    bih::Tree tree = bih::build(es, bih::Config::for_queries());
+    auto words = bih::encode(tree, es, bih::RangePayload{});
+    bih::LeafRecords<PinnedBox> records(tree, es);
+    std::vector<bih::ElementHit> hits;
+    std::size_t mismatches = 0, total = 0;
+    for (const Ray& r : testing::random_rays(3000, {vec3(0.0f), vec3(1.05f)}, 64)) {
+        bih::all_hits(std::span<const std::uint32_t>(words), records, r, hits);
+        auto expected = bih::brute_force_hits(es, r);
+        total += expected.size();
+        mismatches += hits == expected ? 0 : 1;
+    }
+    CHECK(mismatches == 0);
+    CHECK(total > 300);
+}

@@ -229,7 +229,7 @@ private:
     /// Table 3: 2 leaves - 1 plus ~60 % single-child nodes), fewer with wider leaves.
     std::size_t reserve_for(std::size_t m) const {
         if (m > cfg_.parallel_threshold && exec_.concurrency() > 1) return 64;  // a chain, then tasks
-        return cfg_.trim_leaves ? 5 * m + 16 : 3 * m / cfg_.max_leaf_elements + 16;
+        return cfg_.trim_leaves ? 6 * m + 64 : 3 * m / cfg_.max_leaf_elements + 64;  // unused pages cost nothing
     }
 
     void node(Chunk& out, std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
@@ -464,7 +464,8 @@ inline void copy_chunk(const Chunk& c, Node* out) {
             if (k != kNoChild) k = static_cast<std::uint32_t>(plain ? c.base + k : c.final_index(k));
         out[plain ? c.base + i : c.final_index(i)] = n;
     }
-    for (const Chunk::Link& l : c.links) out[c.final_index(l.node)].child[l.slot] = static_cast<std::uint32_t>(l.sub->base);
+    for (const Chunk::Link& l : c.links)
+        out[c.final_index(l.node)].child[l.slot] = static_cast<std::uint32_t>(l.sub->base);
 }
 
 /// The statistics of all chunks together.

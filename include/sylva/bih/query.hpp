@@ -356,7 +356,9 @@ struct OrderedSource {
         auto [first, count] = leaf_range(payload, order.size());
         for (std::uint32_t k = 0; k < count; ++k) {
             std::uint32_t e = order[first + k];
-            if (e >= elements.size()) throw Error("bih query: tree order refers to element " + std::to_string(e) + " of " + std::to_string(elements.size()));
+            if (e >= elements.size())
+                throw Error("bih query: tree order refers to element " + std::to_string(e) + " of " +
+                            std::to_string(elements.size()));
             if (auto t = intersect_element(elements[e], ray, range)) sink(ElementHit{e, *t});
         }
     }
@@ -483,30 +485,26 @@ public:
     using Probe = std::conditional_t<kSpheres, detail::SphereProbe, std::pair<Ray, Interval>>;
 
     LeafRecords() = default;
-    /// Gathers `elements` in the order of `tree` (built over them), in parallel on `exec`.
+    /// Gathers `elements` in the order of `tree` (built over them); spheres in parallel on `exec`.
     /// Throws sylva::Error when the tree's order does not fit the elements.
     template <Executor X>
-    LeafRecords(const Tree& tree, std::span<const E> elements, X& exec) {
-        const std::size_t n = tree.order.size();
-        ids_ = tree.order;
-        records_.resize(n + 3);  // 3 spare zero-radius records: four-wide loads never leave the array
-        std::atomic<bool> bad{false};
-        exec.parallel_for(0, n, 16384, [&](std::size_t lo, std::size_t hi) {
-            for (std::size_t k = lo; k < hi; ++k) {
-                std::uint32_t e = ids_[k];
-                if (e >= elements.size()) {
-                    bad = true;
-                    continue;
-                }
-                if constexpr (kSpheres) {
-                    const Sphere& sp = elements[e];
+    LeafRecords(const Tree& tree, std::span<const E> elements, X& exec) : ids_(tree.order) {
+        for (std::uint32_t e : ids_)
+            if (e >= elements.size())
+                throw Error("bih::LeafRecords: the tree's order refers to element " + std::to_string(e) + " of the " +
+                            std::to_string(elements.size()) + " given");
+        if constexpr (kSpheres) {
+            records_.resize(ids_.size() + 3);  // 3 spare zero-radius records: four-wide loads stay inside
+            exec.parallel_for(0, ids_.size(), 16384, [&](std::size_t lo, std::size_t hi) {
+                for (std::size_t k = lo; k < hi; ++k) {
+                    const Sphere& sp = elements[ids_[k]];
                     records_[k] = SphereRecord{{sp.center.x, sp.center.y, sp.center.z}, sp.radius};
-                } else {
-                    records_[k] = elements[e];
                 }
-            }
-        });
-        if (bad) throw Error("bih::LeafRecords: the tree's order refers to elements beyond the " + std::to_string(elements.size()) + " given");
+            });
+        } else {  // any element type, default-constructible or not
+            records_.reserve(ids_.size());
+            for (std::uint32_t e : ids_) records_.push_back(elements[e]);
+        }
     }
     /// The same on the calling thread.
     LeafRecords(const Tree& tree, std::span<const E> elements) : LeafRecords(tree, elements, serial()) {}
@@ -515,7 +513,7 @@ public:
     [[nodiscard]] std::size_t size() const { return ids_.size(); }
     /// Index in the caller's array of the element at leaf position k (the tree's order).
     [[nodiscard]] std::span<const std::uint32_t> ids() const { return ids_; }
-    /// The records in leaf order (plus 3 spare ones at the end).
+    /// The records in leaf order (spheres: plus 3 spare ones at the end).
     [[nodiscard]] std::span<const Record> records() const { return records_; }
 
     /// Calls sink(ElementHit) for each element of the leaf the ray hits, in leaf order.
