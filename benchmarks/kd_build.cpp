@@ -354,18 +354,23 @@ ReplayResult replay(const V& vol, R& rebuilder, const kdtree::Config& cfg, X& ex
             res.occupancy.push_back(rebuilder.timings().occupancy_ms);
             res.split.push_back(rebuilder.timings().split_ms);
             uvec3 nb = kdtree::block_counts(vol.dims);
-            res.read.push_back(100.0 * double(rebuilder.timings().blocks_read) / double(std::size_t{nb.x} * nb.y * nb.z));
+            if (cfg.planes == kdtree::Planes::Binned)
+                res.read.push_back(100.0 * double(rebuilder.timings().blocks_read) / double(std::size_t{nb.x} * nb.y * nb.z));
         }
     res.prepare_ms = rebuilder.prepare_ms();
     return res;
 }
 
 void print_replay(const Case& c, const std::string& impl, const ReplayResult& r, Report& rep) {
-    std::printf("  %-30s %9.2f %9.2f %8.3f %9.3f %9.2f %9.2f %7.1f %9.1f\n", impl.c_str(), median(r.rebuild),
-                median(r.fresh), median(r.ratio), median(r.classify), median(r.occupancy), median(r.split), median(r.read),
-                r.prepare_ms);
-    rep.add(c.name, "replay/" + impl, "blocks_read", median(r.read), "%");
-    rep.add(c.name, "replay/" + impl, "prepare_once_ms", r.prepare_ms, "ms");
+    std::printf("  %-30s %9.2f %9.2f %8.3f %9.3f %9.2f %9.2f", impl.c_str(), median(r.rebuild), median(r.fresh),
+                median(r.ratio), median(r.classify), median(r.occupancy), median(r.split));
+    if (r.read.empty()) {  // partial SVTs: every voxel is read, nothing is prepared
+        std::printf(" %7s %9s\n", "-", "-");
+    } else {
+        std::printf(" %7.1f %9.1f\n", median(r.read), r.prepare_ms);
+        rep.add(c.name, "replay/" + impl, "blocks_read", median(r.read), "%");
+        rep.add(c.name, "replay/" + impl, "prepare_once_ms", r.prepare_ms, "ms");
+    }
     rep.add(c.name, "replay/" + impl, "rebuild_ms", median(r.rebuild), "ms");
     rep.add(c.name, "replay/" + impl, "fresh_ms", median(r.fresh), "ms");
     rep.add(c.name, "replay/" + impl, "rebuild_over_fresh", median(r.ratio), "x");
