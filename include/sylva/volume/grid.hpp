@@ -12,6 +12,7 @@
 #ifndef SYLVA_VOLUME_GRID_HPP
 #define SYLVA_VOLUME_GRID_HPP
 
+#include <cmath>
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
