@@ -29,14 +29,9 @@
 #include <sylva/bih/stats.hpp>
 #include <sylva/core/executor.hpp>
 #include <sylva/volume/grid.hpp>
-#include <sylva/volume/voxels.hpp>
-
-#if __has_include(<sylva/volume/resample.hpp>)
+#include <sylva/volume/read_raw.hpp>
 #include <sylva/volume/resample.hpp>
-#define SYLVA_TABLES_RESAMPLE 1
-#else
-#define SYLVA_TABLES_RESAMPLE 0
-#endif
+#include <sylva/volume/voxels.hpp>
 
 #ifndef SYLVA_DATA_DIR
 #define SYLVA_DATA_DIR "../shared/data"
@@ -137,13 +132,9 @@ std::vector<Case> cases() {
         {"lobster/spacing1", "Table 3 (spacing 1 1 1)", lob, {301, 324, 56}, {1.0f, 1.0f, 1.0f}, 1.0f, lobster},
         {"engine", "Table 3", eng, {256, 256, 128}, {1.0f, 1.0f, 1.0f}, 1.0f, engine},
         {"aneurism/x1", "Table 6", ane, {256, 256, 256}, {1.0f, 1.0f, 1.0f}, 1.0f, aneurism(113453, 267, 24, 1841)},
+        {"aneurism/x1.5", "Table 6", ane, {256, 256, 256}, {1.0f, 1.0f, 1.0f}, 1.5f, aneurism(409511, 930, 27, 5944)},
+        {"aneurism/x2", "Table 6", ane, {256, 256, 256}, {1.0f, 1.0f, 1.0f}, 2.0f, aneurism(976669, 2221, 27, 13079)},
     };
-    if (SYLVA_TABLES_RESAMPLE) {
-        out.push_back({"aneurism/x1.5", "Table 6", ane, {256, 256, 256}, {1.0f, 1.0f, 1.0f}, 1.5f,
-                       aneurism(409511, 930, 27, 5944)});
-        out.push_back({"aneurism/x2", "Table 6", ane, {256, 256, 256}, {1.0f, 1.0f, 1.0f}, 2.0f,
-                       aneurism(976669, 2221, 27, 13079)});
-    }
     return out;
 }
 
@@ -172,30 +163,19 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
-/// An 8-bit raw volume, normalised; std::nullopt (with a message) when missing or short.
+/// An 8-bit raw volume, normalised; std::nullopt (with the reader's message) when it cannot be read.
 std::optional<volume::DensityGrid> load(const std::string& dir, const Case& c) {
-    std::string path = dir + "/" + c.file;
-    std::ifstream f(path, std::ios::binary);
-    volume::Volume v;
-    v.dims = c.dims;
-    v.spacing = c.spacing;
-    v.bytes.resize(volume::voxel_count(c.dims));
-    f.read(reinterpret_cast<char*>(v.bytes.data()), static_cast<std::streamsize>(v.bytes.size()));
-    if (!f || f.gcount() != static_cast<std::streamsize>(v.bytes.size())) {
-        std::cerr << "sylva-tables: cannot read " << v.bytes.size() << " bytes from " << path << "\n";
+    try {
+        return volume::normalize(volume::read_raw(dir + "/" + c.file, {c.dims, volume::ScalarType::U8, c.spacing}));
+    } catch (const Error& e) {
+        std::cerr << "sylva-tables: " << e.what() << "\n";
         return std::nullopt;
     }
-    return volume::normalize(v);
 }
 
 /// Source grid of a case: the volume, resampled when the case asks for it.
 volume::DensityGrid source_grid(const volume::DensityGrid& g, float factor, ThreadPool& pool) {
-#if SYLVA_TABLES_RESAMPLE
     if (factor != 1.0f) return volume::resample_trilinear(g, factor, pool);
-#else
-    (void)pool;
-    if (factor != 1.0f) throw Error("resampling is not available in this build");
-#endif
     return g;
 }
 
@@ -308,8 +288,8 @@ void write_json(const std::string& path, const std::vector<Record>& rs) {
 bool run(const Options& o, std::vector<Record>& records, std::vector<std::pair<std::string, std::string>>& shown) {
     ThreadPool pool(o.threads);
     bool ok = true;
-    std::printf("sylva-tables: %zu threads, %zu runs per case (medians), data %s%s\n", pool.concurrency(), o.runs,
-                o.data.c_str(), SYLVA_TABLES_RESAMPLE ? "" : "; resampling unavailable: aneurism factor 1 only");
+    std::printf("sylva-tables: %zu threads, %zu runs per case (medians), data %s\n", pool.concurrency(), o.runs,
+                o.data.c_str());
     for (const Case& c : cases()) {
         if (!o.only.empty() && c.name.find(o.only) == std::string::npos) continue;
         std::optional<volume::DensityGrid> grid = load(o.data, c);

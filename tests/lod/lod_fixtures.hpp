@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <optional>
 #include <random>
 #include <string>
@@ -17,6 +16,7 @@
 
 #include <sylva/bih/tree.hpp>
 #include <sylva/volume/grid.hpp>
+#include <sylva/volume/read_raw.hpp>
 
 namespace sylva::lodtest {
 
@@ -95,15 +95,7 @@ inline std::optional<volume::DensityGrid> load_u8(const std::string& name, volum
         }
         FAIL("data file missing: " << path << " (set SYLVA_ALLOW_MISSING_DATA=1 to skip)");
     }
-    volume::Volume v;
-    v.type = volume::ScalarType::U8;
-    v.dims = dims;
-    v.spacing = spacing;
-    v.bytes.resize(volume::voxel_count(dims));
-    std::ifstream f(path, std::ios::binary);
-    f.read(reinterpret_cast<char*>(v.bytes.data()), static_cast<std::streamsize>(v.bytes.size()));
-    REQUIRE(f.gcount() == static_cast<std::streamsize>(v.bytes.size()));
-    return volume::normalize(v);
+    return volume::normalize(volume::read_raw(path, {dims, volume::ScalarType::U8, spacing}));
 }
 
 }  // namespace sylva::lodtest
