@@ -93,12 +93,23 @@ SYLVA_FN void sylva_bih_dvr_sample(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(tf), 
     sylva_dvr_blend(acc, sylva_dvr_shade(p, vec3(c.x, c.y, c.z), g, d), a);
 }
 
+/// The next leaf whose segment is not empty once clipped to start where the ray is already
+/// integrated (t_done): 16-bit planes round outwards, so neighbouring leaf boxes overlap by up
+/// to 1/32768 of the root box, and without the clip that overlap would be integrated twice
+/// (measured: PSNR against the marcher stopped rising with the resampling factor). Leaves of a
+/// voxel grid otherwise come strictly front to back.
+SYLVA_FN bool sylva_bih_dvr_next_segment(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYLVA_INOUT(float) t_done,
+                                         SYLVA_OUT(uint) leaf, SYLVA_OUT(float) t0, SYLVA_OUT(float) t1) {
+    while (sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t0, t1)) {
+        t0 = sylva_max(t0, t_done);
+        t_done = sylva_max(t_done, t1);
+        if (t1 > t0) return true;
+    }
+    return false;
+}
+
 /// Single-sample BIH-DVR of the ray origin + t * direction over [t_min, t_max] (direction
 /// normalised here: t is world distance). Returns premultiplied RGB and opacity.
-/// Each leaf's segment starts where the previous one ended: 16-bit planes round outwards, so
-/// neighbouring leaf boxes overlap by up to 1/32768 of the root box, and without the clip the
-/// overlap would be integrated twice (measured: PSNR against the marcher stopped rising with
-/// the resampling factor). Leaves of a voxel grid come strictly front to back otherwise.
 SYLVA_FN vec4 sylva_bih_dvr_single(SYLVA_BUF(words), SYLVA_BUF(tf), SylvaDvrParams p, vec3 origin, vec3 direction,
                                    float t_min, float t_max, SYLVA_OUT(uint) steps, SYLVA_OUT(uint) status) {
     vec3 d = sylva_dvr_unit(direction);
@@ -108,12 +119,9 @@ SYLVA_FN vec4 sylva_bih_dvr_single(SYLVA_BUF(words), SYLVA_BUF(tf), SylvaDvrPara
     uint leaf;
     float t0;
     float t1;
-    float t_done = t_min;  // integrated up to here: a leaf starts no earlier (no double counting)
-    while (acc.alpha < p.alpha_stop && sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t0, t1)) {
-        t0 = sylva_max(t0, t_done);
-        t_done = sylva_max(t_done, t1);
+    float t_done = t_min;
+    while (acc.alpha < p.alpha_stop && sylva_bih_dvr_next_segment(it, SYLVA_PASS_BUF(words), t_done, leaf, t0, t1)) {
         SYLVA_PRECISE float len = t1 - t0;
-        if (!(len > 0.0f)) continue;
         SylvaVoxel v = sylva_voxel_unpack(sylva_bih_payload(SYLVA_PASS_BUF(words), it.hdr, leaf));
         vec3 c = sylva_bih_dvr_center(it.hdr, it.leaf_lo, it.leaf_hi);
         SYLVA_PRECISE float mid = 0.5f * t0 + 0.5f * t1;
@@ -149,11 +157,9 @@ SYLVA_FN vec4 sylva_bih_dvr_multi(SYLVA_BUF(words), SYLVA_BUF(tf), SylvaDvrParam
     float t0;
     float t1;
     bool usable = p.dt > 0.0f && p.unit > 0.0f;
-    float t_done = t_min;  // lattice samples before this were taken by earlier leaves
-    while (usable && acc.alpha < p.alpha_stop && sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t0, t1)) {
-        t0 = sylva_max(t0, t_done);
-        t_done = sylva_max(t_done, t1);
-        if (!(t1 > t0)) continue;
+    float t_done = t_min;
+    while (usable && acc.alpha < p.alpha_stop &&
+           sylva_bih_dvr_next_segment(it, SYLVA_PASS_BUF(words), t_done, leaf, t0, t1)) {
         SylvaVoxel v = sylva_voxel_unpack(sylva_bih_payload(SYLVA_PASS_BUF(words), it.hdr, leaf));
         vec3 c = sylva_bih_dvr_center(it.hdr, it.leaf_lo, it.leaf_hi);
         sylva_bih_dvr_leaf_lattice(acc, SYLVA_PASS_BUF(tf), p, v, c, origin, d, t0, t1);
