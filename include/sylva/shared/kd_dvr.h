@@ -62,31 +62,6 @@
 
 SYLVA_BEGIN_NAMESPACE
 
-/// Ray interval inside the closed voxel-space box [lo, hi] (float corners), intersected with
-/// [t0, t1]; empty (x > y) when the ray misses it. org, rcp, par as in SylvaKdIter.
-SYLVA_FN vec2 sylva_kd_dvr_box_interval(vec3 org, vec3 rcp, uvec3 par, vec3 lo, vec3 hi, float t0, float t1) {
-    float a = t0;
-    float b = t1;
-    for (uint k = 0u; k < 3u; k++) {
-        float l = sylva_kd_pick(lo, k);
-        float h = sylva_kd_pick(hi, k);
-        float o = sylva_kd_pick(org, k);
-        if (sylva_kd_pick_u(par, k) != 0u) {
-            if (o < l || o > h) {
-                a = sylva_inf();
-                b = -sylva_inf();
-            }
-        } else {
-            float r = sylva_kd_pick(rcp, k);
-            float ta = sylva_canon((l - o) * r);
-            float tb = sylva_canon((h - o) * r);
-            a = sylva_max(a, sylva_min(ta, tb));
-            b = sylva_min(b, sylva_max(ta, tb));
-        }
-    }
-    return vec2(a, b);
-}
-
 /// The ray interval inside node `node`'s box grown by `margin` voxels, within [t0, t1].
 SYLVA_FN vec2 sylva_kd_dvr_leaf_span(SYLVA_BUF(words), vec3 org, vec3 rcp, uvec3 par, uint node, float margin,
                                      float t0, float t1) {
@@ -94,7 +69,7 @@ SYLVA_FN vec2 sylva_kd_dvr_leaf_span(SYLVA_BUF(words), vec3 org, vec3 rcp, uvec3
     uvec3 hi = sylva_kd_box_hi(SYLVA_PASS_BUF(words), node);
     vec3 glo = vec3(float(lo.x) - margin, float(lo.y) - margin, float(lo.z) - margin);
     vec3 ghi = vec3(float(hi.x) + margin, float(hi.y) + margin, float(hi.z) + margin);
-    return sylva_kd_dvr_box_interval(org, rcp, par, glo, ghi, t0, t1);
+    return sylva_kd_box_interval_f(org, rcp, par, glo, ghi, t0, t1);
 }
 
 /// The marcher's samples k >= k_first with t_k < t_end, composited into acc; stops early at

@@ -89,14 +89,14 @@ SYLVA_FN bool sylva_kd_not_finite(float x) { return (floatBitsToUint(x) & 0x7FFF
 /// True when x is NaN.
 SYLVA_FN bool sylva_kd_nan(float x) { return (floatBitsToUint(x) & 0x7FFFFFFFu) > 0x7F800000u; }
 
-/// Ray interval inside the closed voxel box [lo, hi] (integer corners), intersected with
+/// Ray interval inside the closed voxel-space box [lo, hi] (float corners), intersected with
 /// [t0, t1]; empty (x > y) when the ray misses it. `par` marks axes the ray is parallel to.
-SYLVA_FN vec2 sylva_kd_box_interval(vec3 org, vec3 rcp, uvec3 par, uvec3 lo, uvec3 hi, float t0, float t1) {
+SYLVA_FN vec2 sylva_kd_box_interval_f(vec3 org, vec3 rcp, uvec3 par, vec3 lo, vec3 hi, float t0, float t1) {
     float a = t0;
     float b = t1;
     for (uint k = 0u; k < 3u; k++) {
-        float l = float(sylva_kd_pick_u(lo, k));
-        float h = float(sylva_kd_pick_u(hi, k));
+        float l = sylva_kd_pick(lo, k);
+        float h = sylva_kd_pick(hi, k);
         float o = sylva_kd_pick(org, k);
         if (sylva_kd_pick_u(par, k) != 0u) {
             if (o < l || o > h) {
@@ -112,6 +112,12 @@ SYLVA_FN vec2 sylva_kd_box_interval(vec3 org, vec3 rcp, uvec3 par, uvec3 lo, uve
         }
     }
     return vec2(a, b);
+}
+
+/// sylva_kd_box_interval_f for a box with integer corners (the encoded node boxes).
+SYLVA_FN vec2 sylva_kd_box_interval(vec3 org, vec3 rcp, uvec3 par, uvec3 lo, uvec3 hi, float t0, float t1) {
+    return sylva_kd_box_interval_f(org, rcp, par, vec3(float(lo.x), float(lo.y), float(lo.z)),
+                                   vec3(float(hi.x), float(hi.y), float(hi.z)), t0, t1);
 }
 
 /// The same for the box of node `i` of the `words` buffer.
