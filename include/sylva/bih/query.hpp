@@ -460,6 +460,11 @@ SYLVA_FORCEINLINE int sphere4(const SphereProbe& p, __m128 cx, __m128 cy, __m128
     __m128 pz = _mm_sub_ps(_mm_add_ps(p.o[2], _mm_mul_ps(tc, p.d[2])), cz);
     __m128 pp = _mm_add_ps(_mm_add_ps(_mm_mul_ps(px, px), _mm_mul_ps(py, py)), _mm_mul_ps(pz, pz));
     __m128 rr = _mm_mul_ps(r, r);
+    // Float prefilter, a superset of inside4: pp <= rr (1 + 2^-24) implies pp < fl(rr (1 + 2^-21))
+    // for normal rr (tiny rr, where the product may not grow, always pass to the exact test).
+    __m128 maybe = _mm_or_ps(_mm_cmple_ps(pp, _mm_mul_ps(rr, _mm_set1_ps(1.0f + 0x1p-21f))),
+                             _mm_cmplt_ps(rr, _mm_set1_ps(0x1p-100f)));
+    if (_mm_movemask_ps(maybe) == 0) return 0;
     int inside = inside4(pp, rr) & _mm_movemask_ps(_mm_cmpgt_ps(r, _mm_setzero_ps()));
     if (inside == 0) return 0;
     __m128 q = _mm_div_ps(pp, rr);

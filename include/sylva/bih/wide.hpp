@@ -1,0 +1,671 @@
+// sylva/bih/wide.hpp -- a host query structure made from a built BIH: its levels collapsed into
+// 4-wide nodes whose child boxes are refitted to the elements, tested four at a time.
+//
+// Why: the BIH's 8-byte nodes suit the GPU and the front-to-back integrators, but a host query
+// that only wants element hits pays ~15 ns for each of many binary node steps. Collapsing
+// binary levels into 4-wide nodes (as Embree turns its binary BVH into a BVH4) quarters the
+// steps' count, refitted boxes prune what the BIH's planes cannot (a BIH child is its parent's
+// box clipped on one axis), and one SSE slab test decides four children at once. The tree's
+// topology, leaf ranges and element order are the BIH's; only the encoding differs. Made once
+// per tree, like LeafRecords; the BIH encoding is still what the GPU and the iterators read.
+//
+// Layout (all host memory, nothing is read from outside, so nothing to validate):
+//   WideNode (128 bytes, 64-aligned): box[6][4] = lo.x, hi.x, lo.y, hi.y, lo.z, hi.z of the
+//   four child slots; child[4], count[4]: an inner child is (wide node index, 0), a leaf is
+//   (first packet or record, number of them >= 1); an unused slot is (kNoChild, 0) with an
+//   empty box (lo = +inf, hi = -inf) that no ray enters.
+//   Spheres are stored in leaf order as packets of four (SoA centres and radii, 64 bytes);
+//   each leaf starts a new packet, unused lanes have radius 0 (never hit). Other element
+//   types are copied in leaf order and tested one by one.
+#ifndef SYLVA_BIH_WIDE_HPP
+#define SYLVA_BIH_WIDE_HPP
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <span>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "sylva/bih/query.hpp"
+#include "sylva/bih/tree.hpp"
+#include "sylva/core/concepts.hpp"
+#include "sylva/core/error.hpp"
+#include "sylva/core/executor.hpp"
+#include "sylva/elements/sphere.hpp"
+
+namespace sylva::bih {
+
+/// How a BIH is collapsed into a WideTree.
+struct WideConfig {
+    /// A BIH subtree with at most this many elements becomes one leaf (a BIH leaf with more stays
+    /// one leaf). Default 4: one packet of spheres, Embree's BVH4 leaf size. Must be >= 1.
+    std::uint32_t max_leaf_elements = 4;
+};
+
+/// Children per wide node: 8, tested as two groups of four (Embree's BVH8 width). A ray's
+/// descent is a chain of dependent node tests, so halving the levels matters more than the
+/// extra box tests of a wider node.
+inline constexpr int kWideWidth = 8;
+
+/// kWideWidth child boxes (SoA) and their links; see the layout at the top of this file.
+struct alignas(64) WideNode {
+    float box[6][kWideWidth];
+    std::uint32_t child[kWideWidth];
+    std::uint32_t count[kWideWidth];
+};
+static_assert(sizeof(WideNode) == 32 * kWideWidth);
+
+/// Four spheres, transposed: centres and radii lane by lane.
+struct alignas(16) SpherePacket {
+    float c[3][4];
+    float r[4];
+};
+
+/// What a WideTree reports about itself.
+struct WideStats {
+    std::size_t nodes = 0;
+    std::size_t leaves = 0;
+    std::uint32_t depth = 0;  ///< wide levels, root = 1 (0 when empty)
+    std::size_t bytes = 0;    ///< nodes + element storage + ids
+};
+
+namespace detail {
+
+/// One BIH subtree after the refit: the tight box of its elements, how many, and where they
+/// start in the tree's order (a subtree of the in-place builder is one contiguous run).
+struct SubtreeFacts {
+    Aabb box;
+    std::uint32_t first = 0, count = 0;
+    bool contiguous = true;
+};
+
+/// Surface-area measure for choosing which child to open next (half the area suffices).
+inline float half_area(const Aabb& b) {
+    vec3 e = glm::max(b.hi - b.lo, vec3(0.0f));
+    return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+
+/// b grown outward by a few ulps of its magnitude, so that rounding in the four-wide slab test
+/// never drops a ray the exact element test would hit (grazing rays, axis-parallel rays).
+inline Aabb padded(const Aabb& b) {
+    Aabb p = b;
+    for (int a = 0; a < 3; ++a) {
+        float m = std::max(std::fabs(b.lo[a]), std::fabs(b.hi[a]));
+        float pad = m * 0x1p-20f + std::numeric_limits<float>::denorm_min();
+        p.lo[a] = b.lo[a] - pad;
+        p.hi[a] = b.hi[a] + pad;
+    }
+    return p;
+}
+
+/// The ray as the four-wide box test reads it.
+struct WideRay {
+    float org[3], rcp[3];
+    int near_row[3], far_row[3];  ///< rows of WideNode::box holding each axis's entry / exit plane
+    WideRay(const Ray& r) {
+        for (int a = 0; a < 3; ++a) {
+            org[a] = r.origin[a];
+            rcp[a] = shared::sylva_safe_rcp(r.direction[a]);
+            bool negative = std::signbit(rcp[a]);
+            near_row[a] = 2 * a + (negative ? 1 : 0);
+            far_row[a] = 2 * a + (negative ? 0 : 1);
+        }
+    }
+};
+
+/// Entry t of the four child boxes and the mask of those the ray enters within [t0, t1].
+/// A NaN slab (a ray lying in a box plane: 0 * inf) constrains nothing: max/min keep the
+/// other operand, so the test errs towards entering.
+SYLVA_FORCEINLINE int enter_children(const WideNode& n, const WideRay& r, float t0, float t1,
+                                     float tn_out[kWideWidth]) {
+#ifdef SYLVA_BIH_QUERY_SSE
+    int mask = 0;
+    for (int g = 0; g < kWideWidth; g += 4) {
+        __m128 tn = _mm_set1_ps(t0), tf = _mm_set1_ps(t1);
+        for (int a = 0; a < 3; ++a) {
+            __m128 o = _mm_set1_ps(r.org[a]), k = _mm_set1_ps(r.rcp[a]);
+            __m128 lo = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.box[r.near_row[a]] + g), o), k);
+            __m128 hi = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.box[r.far_row[a]] + g), o), k);
+            tn = _mm_max_ps(lo, tn);  // maxps returns the second operand when either is NaN
+            tf = _mm_min_ps(hi, tf);
+        }
+        _mm_storeu_ps(tn_out + g, tn);
+        mask |= _mm_movemask_ps(_mm_cmple_ps(tn, tf)) << g;
+    }
+    return mask;
+#else
+    int mask = 0;
+    for (int c = 0; c < kWideWidth; ++c) {
+        float tn = t0, tf = t1;
+        for (int a = 0; a < 3; ++a) {
+            float lo = (n.box[r.near_row[a]][c] - r.org[a]) * r.rcp[a];
+            float hi = (n.box[r.far_row[a]][c] - r.org[a]) * r.rcp[a];
+            tn = lo > tn ? lo : tn;  // NaN compares false: tn kept
+            tf = hi < tf ? hi : tf;
+        }
+        tn_out[c] = tn;
+        mask |= tn <= tf ? (1 << c) : 0;
+    }
+    return mask;
+#endif
+}
+
+}  // namespace detail
+
+/// A BIH collapsed into 4-wide nodes for host queries (see the top of this file). Holds its
+/// own copy of the elements in leaf order, so the caller's array may go; element indices in
+/// the hits are the caller's.
+template <Intersectable E>
+class WideTree {
+public:
+    static constexpr bool kSpheres = std::is_same_v<E, Sphere>;
+
+    WideTree() = default;
+    /// Collapses `tree` (built over `elements`): the refit and the copy of the elements run in
+    /// parallel on `exec`. Throws sylva::Error when the tree does not fit the elements (a link
+    /// out of range, a node reached twice, a leaf past the order, an element index out of
+    /// range, more than SYLVA_BIH_DEPTH_CAP + 1 wide levels) or the config is invalid.
+    template <Executor X>
+    WideTree(const Tree& tree, std::span<const E> elements, const WideConfig& cfg, X& exec) {
+        if (cfg.max_leaf_elements == 0) throw Error("bih::WideTree: max_leaf_elements must be at least 1");
+        for (std::uint32_t e : tree.order)
+            if (e >= elements.size())
+                throw Error("bih::WideTree: the tree's order refers to element " + std::to_string(e) + " of the " +
+                            std::to_string(elements.size()) + " given");
+        if (tree.nodes.empty() || tree.order.empty()) return;
+        Builder b{*this, tree, elements, cfg, {}, {}, 0};
+        b.refit(exec);
+        b.make_root();
+        b.fill(exec);
+        stats_.nodes = nodes_.size();
+        stats_.bytes = nodes_.size() * sizeof(WideNode) + ids_.size() * sizeof(std::uint32_t) +
+                       records_.size() * sizeof(Record);
+    }
+
+    /// The same on the calling thread.
+    WideTree(const Tree& tree, std::span<const E> elements, const WideConfig& cfg = {})
+        : WideTree(tree, elements, cfg, serial()) {}
+
+    [[nodiscard]] const WideStats& stats() const { return stats_; }
+    [[nodiscard]] std::span<const WideNode> nodes() const { return nodes_; }
+
+    /// Calls on_leaf(first, count) for each leaf the ray's [range] enters, nearest entry first,
+    /// skipping those entered after `limit()` (re-read after each leaf: first-hit pruning).
+    template <class Limit, class OnLeaf>
+    void for_each_leaf(const Ray& ray, Interval range, Limit&& limit, OnLeaf&& on_leaf) const {
+        if (nodes_.empty() || range.empty()) return;
+        detail::WideRay r(ray);
+        struct Entry {
+            std::uint32_t child, count;
+            float tn;
+        };
+        Entry stack[kStack];
+        std::uint32_t sp = 0;
+        stack[sp++] = {0u, 0u, range.t0};
+        while (sp > 0) {
+            Entry e = stack[--sp];
+            if (e.tn > limit()) continue;
+            if (e.count != 0u) {
+                on_leaf(e.child, e.count);
+                continue;
+            }
+            const WideNode& n = nodes_[e.child];
+            float tn[kWideWidth];
+            int mask = detail::enter_children(n, r, range.t0, std::min(range.t1, limit()), tn);
+            // Push the entered children farthest first, so the nearest is popped next.
+            int order[kWideWidth], k = 0;
+            for (int c = 0; c < kWideWidth; ++c)
+                if (mask & (1 << c)) {
+                    int j = k++;
+                    for (; j > 0 && tn[order[j - 1]] < tn[c]; --j) order[j] = order[j - 1];
+                    order[j] = c;
+                }
+            for (int j = 0; j < k; ++j) {
+                std::uint32_t c = n.child[order[j]], count = n.count[order[j]];
+                if (count)
+                    prefetch(&records_[c]);
+                else
+                    prefetch_node(c);
+                stack[sp++] = {c, count, tn[order[j]]};
+            }
+        }
+    }
+
+    /// Calls on_leaf(first, count) for each leaf the ray's [range] enters, in no particular
+    /// order (for queries that sort their hits anyway): the leaves of a node are reported as
+    /// soon as the node is tested, its inner children are pushed without branches, and the
+    /// last one pushed is visited next without a pop.
+    template <class OnLeaf>
+    void for_each_leaf_any_order(const Ray& ray, Interval range, OnLeaf&& on_leaf) const {
+        if (nodes_.empty() || range.empty()) return;
+        detail::WideRay r(ray);
+        std::uint32_t stack[kStack];
+        std::uint32_t sp = 0, node = 0;
+        // Leaves are gathered while the tree is walked and tested in batches: the walk keeps no
+        // branches on what the leaves hold, and the batch's loads are all known up front.
+        constexpr std::uint32_t kFound = 64;
+        std::pair<std::uint32_t, std::uint32_t> found[kFound];
+        std::uint32_t nf = 0;
+        auto flush = [&] {
+            for (std::uint32_t k = 0; k < nf; ++k) on_leaf(found[k].first, found[k].second);
+            nf = 0;
+        };
+        for (;;) {
+            const WideNode& n = nodes_[node];
+            float tn[kWideWidth];
+            int mask = detail::enter_children(n, r, range.t0, range.t1, tn);
+            int leaves = mask & leaf_mask(n);
+            int inner = mask & ~leaves;
+            for (int m = inner; m != 0; m &= m - 1) prefetch_node(n.child[lowest_bit(m)]);
+            for (int m = inner; m != 0; m &= m - 1) stack[sp++] = n.child[lowest_bit(m)];
+            for (int m = leaves; m != 0; m &= m - 1) {
+                int c = lowest_bit(m);
+                found[nf++] = {n.child[c], n.count[c]};
+            }
+            if (nf > kFound - kWideWidth) flush();
+            if (sp == 0) break;
+            node = stack[--sp];
+        }
+        flush();
+    }
+
+    /// Calls f(element index) for each element of a leaf (first, count), in leaf order.
+    template <class F>
+    void for_each_leaf_element(std::uint32_t first, std::uint32_t count, F&& f) const {
+        constexpr std::uint32_t per_record = kSpheres ? 4u : 1u;
+        for (std::size_t k = std::size_t{first} * per_record; k < (std::size_t{first} + count) * per_record; ++k)
+            if (ids_[k] != kNoChild) f(ids_[k]);
+    }
+
+    /// What leaf_hits needs of the ray, made once per ray.
+    using Probe = std::conditional_t<kSpheres, detail::SphereProbe, std::pair<Ray, Interval>>;
+    [[nodiscard]] static Probe probe(const Ray& ray, Interval range) { return Probe(ray, range); }
+
+    /// Calls sink(ElementHit) for each element of a leaf (first, count) the ray hits in range.
+    template <class Sink>
+    SYLVA_FORCEINLINE void leaf_hits(std::uint32_t first, std::uint32_t count, const Probe& p, Sink&& sink) const {
+        if constexpr (kSpheres) {
+#ifdef SYLVA_BIH_QUERY_SSE
+            if (!p.valid) return;
+            for (std::uint32_t k = first; k < first + count; ++k) {
+                const SpherePacket& s = records_[k];
+                __m128 t0, t1;
+                int mask = detail::sphere4(p, _mm_load_ps(s.c[0]), _mm_load_ps(s.c[1]), _mm_load_ps(s.c[2]),
+                                           _mm_load_ps(s.r), t0, t1);
+                if (!mask) continue;
+                alignas(16) float lo[4], hi[4];
+                _mm_store_ps(lo, t0);
+                _mm_store_ps(hi, t1);
+                for (; mask != 0; mask &= mask - 1) {
+                    int lane = lowest_bit(mask);
+                    sink(ElementHit{ids_[4 * k + static_cast<std::uint32_t>(lane)], Interval{lo[lane], hi[lane]}});
+                }
+            }
+#else
+            for (std::uint32_t k = first; k < first + count; ++k)
+                for (int lane = 0; lane < 4; ++lane) {
+                    const SpherePacket& s = records_[k];
+                    Sphere sp;
+                    sp.center = vec3(s.c[0][lane], s.c[1][lane], s.c[2][lane]);
+                    sp.radius = s.r[lane];
+                    if (sp.radius > 0.0f)
+                        if (auto t = sp.intersect(p.ray, p.range)) sink(ElementHit{ids_[4 * k + lane], *t});
+                }
+#endif
+        } else {
+            for (std::uint32_t k = first; k < first + count; ++k)
+                if (auto t = intersect_element(records_[k], p.first, p.second)) sink(ElementHit{ids_[k], *t});
+        }
+    }
+
+private:
+    static void prefetch(const void* p) {
+#if defined(__GNUC__) || defined(__clang__)
+        __builtin_prefetch(p);
+#else
+        (void)p;
+#endif
+    }
+
+    static SerialExecutor& serial() {
+        static SerialExecutor s;  // stateless
+        return s;
+    }
+
+    /// Bit c set when slot c of n is a leaf (count != 0).
+    static int leaf_mask(const WideNode& n) {
+#ifdef SYLVA_BIH_QUERY_SSE
+        int m = 0;
+        for (int g = 0; g < kWideWidth; g += 4) {
+            __m128i zero = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(n.count + g)), _mm_setzero_si128());
+            m |= (~_mm_movemask_ps(_mm_castsi128_ps(zero)) & 15) << g;
+        }
+        return m;
+#else
+        int m = 0;
+        for (int c = 0; c < kWideWidth; ++c) m |= n.count[c] ? (1 << c) : 0;
+        return m;
+#endif
+    }
+    static int lowest_bit(int m) {
+#if defined(__GNUC__) || defined(__clang__)
+        return __builtin_ctz(static_cast<unsigned>(m));
+#else
+        int c = 0;
+        while (!(m & (1 << c))) ++c;
+        return c;
+#endif
+    }
+    void prefetch_node(std::uint32_t i) const {
+        for (std::size_t line = 0; line < sizeof(WideNode); line += 64)
+            prefetch(reinterpret_cast<const char*>(&nodes_[i]) + line);
+    }
+
+    using Record = std::conditional_t<kSpheres, SpherePacket, E>;
+    /// Stack bound: the wide depth is at most the BIH's (kMaxDepth levels, checked when the tree
+    /// is made), and each level leaves at most kWideWidth - 1 siblings behind.
+    static constexpr std::uint32_t kMaxDepth = SYLVA_BIH_DEPTH_CAP + 1u;
+    static constexpr std::uint32_t kStack = (kWideWidth - 1u) * kMaxDepth + kWideWidth;
+
+    struct Builder {
+        WideTree& out;
+        const Tree& tree;
+        std::span<const E> elements;
+        const WideConfig& cfg;
+        std::vector<detail::SubtreeFacts> facts;
+        /// A leaf's records to fill: from record `record`, the elements order[first, first + count).
+        struct LeafJob {
+            std::uint32_t record, first, count;
+        };
+        std::vector<LeafJob> jobs;
+        std::uint32_t records = 0;  ///< records (sphere packets or elements) handed out so far
+
+        /// Tight boxes, counts and order ranges of every BIH subtree, children before parents;
+        /// the leaves (which read the elements) in parallel.
+        template <class X>
+        void refit(X& exec) {
+            facts.assign(tree.nodes.size(), {});
+            std::vector<std::uint32_t> post = children_first();
+            std::vector<std::uint32_t> leaves;
+            for (std::uint32_t n : post) {
+                const Node& node = tree.nodes[n];
+                if (!node.leaf()) continue;
+                if (std::uint64_t{node.first} + node.count > tree.order.size())
+                    throw Error("bih::WideTree: leaf " + std::to_string(n) + " refers past the tree's order");
+                leaves.push_back(n);
+            }
+            exec.parallel_for(0, leaves.size(), 4096, [&](std::size_t lo, std::size_t hi) {
+                for (std::size_t k = lo; k < hi; ++k) facts[leaves[k]] = fact_of(leaves[k]);
+            });
+            for (std::uint32_t n : post)
+                if (!tree.nodes[n].leaf()) facts[n] = fact_of(n);
+        }
+
+        /// The nodes below the root, each after its children. The builder stores children after
+        /// their parent, so the reverse index order is one; other trees get a depth-first walk.
+        /// Throws when a link leaves the tree or a node is reached twice (a cycle, a shared child).
+        [[nodiscard]] std::vector<std::uint32_t> children_first() const {
+            const auto size = static_cast<std::uint32_t>(tree.nodes.size());
+            std::vector<std::uint32_t> parents(size, 0);
+            bool forward = true;  // every child index above its parent's
+            for (std::uint32_t n = 0; n < size; ++n)
+                for (std::uint32_t c : children(n)) {
+                    check_node(c);
+                    if (++parents[c] > 1 || c == 0)
+                        throw Error("bih::WideTree: node " + std::to_string(c) + " is reached twice (not a tree)");
+                    forward = forward && c > n;
+                }
+            std::vector<std::uint32_t> order;
+            order.reserve(size);
+            if (forward) {  // unreachable nodes (no parent) are left out
+                std::vector<char> reached(size, 0);
+                reached[0] = 1;
+                for (std::uint32_t n = 0; n < size; ++n)
+                    if (reached[n])
+                        for (std::uint32_t c : children(n)) reached[c] = 1;
+                for (std::uint32_t n = size; n-- > 0;)
+                    if (reached[n]) order.push_back(n);
+                return order;
+            }
+            // A depth-first walk; with one parent per node and the root parentless, it ends.
+            std::vector<std::pair<std::uint32_t, bool>> todo{{0u, false}};
+            while (!todo.empty()) {
+                auto [n, expanded] = todo.back();
+                todo.pop_back();
+                if (expanded) {
+                    order.push_back(n);
+                    continue;
+                }
+                todo.push_back({n, true});
+                for (std::uint32_t c : children(n)) todo.push_back({c, false});
+            }
+            return order;
+        }
+
+        void check_node(std::uint32_t n) const {
+            if (n >= tree.nodes.size())
+                throw Error("bih::WideTree: a node links to node " + std::to_string(n) + " of " +
+                            std::to_string(tree.nodes.size()));
+        }
+
+        /// The non-empty children of an inner BIH node (at most two; none for a leaf).
+        struct Kids {
+            std::uint32_t id[2];
+            std::uint32_t n = 0;
+            [[nodiscard]] const std::uint32_t* begin() const { return id; }
+            [[nodiscard]] const std::uint32_t* end() const { return id + n; }
+        };
+        [[nodiscard]] Kids children(std::uint32_t n) const {
+            const Node& node = tree.nodes[n];
+            Kids k{};
+            if (node.leaf()) return k;
+            for (int s = 0; s < (node.single ? 1 : 2); ++s)
+                if (node.child[s] != kNoChild) k.id[k.n++] = node.child[s];
+            return k;
+        }
+
+        [[nodiscard]] detail::SubtreeFacts fact_of(std::uint32_t n) const {
+            const Node& node = tree.nodes[n];
+            detail::SubtreeFacts f;
+            if (node.leaf()) {  // its range was checked by refit
+                f.first = node.first;
+                f.count = node.count;
+                for (std::uint32_t k = node.first; k < node.first + node.count; ++k)
+                    f.box.extend(bounds_of(elements[tree.order[k]]));
+                return f;
+            }
+            std::uint32_t lo = std::numeric_limits<std::uint32_t>::max(), hi = 0;
+            for (std::uint32_t c : children(n)) {
+                const detail::SubtreeFacts& k = facts[c];
+                f.box.extend(k.box);
+                f.count += k.count;
+                f.contiguous = f.contiguous && k.contiguous;
+                if (k.count) {
+                    lo = std::min(lo, k.first);
+                    hi = std::max(hi, k.first + k.count);
+                }
+            }
+            f.first = f.count ? lo : 0u;
+            f.contiguous = f.contiguous && (f.count == 0 || hi - lo == f.count);
+            return f;
+        }
+
+        /// A subtree that becomes one leaf: a BIH leaf, or a small contiguous subtree.
+        [[nodiscard]] bool leaf_like(std::uint32_t n) const {
+            const detail::SubtreeFacts& f = facts[n];
+            return tree.nodes[n].leaf() || (f.contiguous && f.count <= cfg.max_leaf_elements);
+        }
+
+        void make_root() {
+            if (facts[0].count == 0) return;  // no elements under the root: nothing to hit
+            out.nodes_.push_back(blank());
+            if (leaf_like(0)) {
+                set_slot(0, 0, 0);
+                out.stats_.depth = 1;
+                return;
+            }
+            make_node(0, 0, 1);
+        }
+
+        static WideNode blank() {
+            WideNode w;
+            const float inf = std::numeric_limits<float>::infinity();
+            for (int r = 0; r < 6; ++r)
+                for (int c = 0; c < kWideWidth; ++c) w.box[r][c] = (r % 2 == 0) ? inf : -inf;
+            for (int c = 0; c < kWideWidth; ++c) {
+                w.child[c] = kNoChild;
+                w.count[c] = 0;
+            }
+            return w;
+        }
+
+        /// Fills wide node `at` with up to four subtrees found below BIH node n: the one with the
+        /// largest box is opened until four are found or none can be opened (Embree's collapse).
+        void make_node(std::uint32_t at, std::uint32_t n, std::uint32_t depth) {
+            if (depth > kMaxDepth)
+                throw Error("bih::WideTree: the tree is deeper than " + std::to_string(SYLVA_BIH_DEPTH_CAP) +
+                            " levels (the builder's cap)");
+            out.stats_.depth = std::max(out.stats_.depth, depth);
+            // Up to kWideWidth subtrees with elements; opening one replaces it by its (<= 2) children.
+            std::uint32_t slots[kWideWidth + 1];
+            std::size_t used = 0;
+            auto keep = [&](std::uint32_t c) {
+                if (facts[c].count != 0) slots[used++] = c;
+            };
+            for (std::uint32_t c : children(n)) keep(c);
+            while (used < std::size_t{kWideWidth}) {
+                std::size_t best = used;
+                float best_area = -1.0f;
+                for (std::size_t i = 0; i < used; ++i) {
+                    std::uint32_t c = slots[i];
+                    if (leaf_like(c)) continue;
+                    float a = detail::half_area(facts[c].box);
+                    if (a > best_area) best_area = a, best = i;
+                }
+                if (best == used) break;
+                Kids open = children(slots[best]);
+                slots[best] = slots[--used];
+                for (std::uint32_t c : open) keep(c);
+            }
+            for (std::size_t s = 0; s < used; ++s) {
+                std::uint32_t c = slots[s];
+                if (leaf_like(c)) {
+                    set_slot(at, static_cast<int>(s), c);
+                    continue;
+                }
+                auto child_at = static_cast<std::uint32_t>(out.nodes_.size());
+                out.nodes_.push_back(blank());
+                set_box(at, static_cast<int>(s), facts[c].box);
+                out.nodes_[at].child[s] = child_at;
+                out.nodes_[at].count[s] = 0;
+                make_node(child_at, c, depth + 1);
+            }
+        }
+
+        void set_box(std::uint32_t at, int slot, const Aabb& box) {
+            Aabb p = detail::padded(box);
+            WideNode& w = out.nodes_[at];
+            for (int a = 0; a < 3; ++a) {
+                w.box[2 * a][slot] = p.lo[a];
+                w.box[2 * a + 1][slot] = p.hi[a];
+            }
+        }
+
+        /// Slot `slot` of wide node `at` becomes a leaf holding BIH subtree n's elements (one
+        /// run of the order: a BIH leaf, or a small subtree that leaf_like found contiguous).
+        /// Spheres take ceil(count / 4) packets; the records are filled later by fill().
+        void set_slot(std::uint32_t at, int slot, std::uint32_t n) {
+            const detail::SubtreeFacts& f = facts[n];
+            set_box(at, slot, f.box);
+            std::uint32_t count = kSpheres ? (f.count + 3u) / 4u : f.count;
+            if (std::uint64_t{records} + count > std::numeric_limits<std::uint32_t>::max() - 1u)
+                throw Error("bih::WideTree: more than 2^32 - 2 leaf records");
+            jobs.push_back({records, f.first, f.count});
+            WideNode& w = out.nodes_[at];
+            w.child[slot] = records;
+            w.count[slot] = count;
+            records += count;
+            ++out.stats_.leaves;
+        }
+
+        /// Copies the elements into their leaves' records: spheres transposed into packets (in
+        /// parallel; unused lanes keep radius 0 and id kNoChild), other types in leaf order.
+        template <class X>
+        void fill(X& exec) {
+            if constexpr (kSpheres) {
+                out.records_.assign(records, SpherePacket{});
+                out.ids_.assign(std::size_t{records} * 4u, kNoChild);
+                exec.parallel_for(0, jobs.size(), 1024, [&](std::size_t lo, std::size_t hi) {
+                    for (std::size_t j = lo; j < hi; ++j) {
+                        const LeafJob& job = jobs[j];
+                        for (std::uint32_t k = 0; k < job.count; ++k) {
+                            std::uint32_t id = tree.order[job.first + k];
+                            SpherePacket& p = out.records_[job.record + k / 4u];
+                            const Sphere& sp = elements[id];
+                            for (int a = 0; a < 3; ++a) p.c[a][k % 4u] = sp.center[a];
+                            p.r[k % 4u] = sp.radius;
+                            out.ids_[std::size_t{job.record} * 4u + k] = id;
+                        }
+                    }
+                });
+            } else {  // any element type, default-constructible or not: in job (= record) order
+                (void)exec;
+                out.records_.reserve(records);
+                out.ids_.reserve(records);
+                for (const LeafJob& job : jobs)
+                    for (std::uint32_t k = 0; k < job.count; ++k) {
+                        std::uint32_t id = tree.order[job.first + k];
+                        out.ids_.push_back(id);
+                        out.records_.push_back(elements[id]);
+                    }
+            }
+        }
+    };
+
+    std::vector<WideNode> nodes_;
+    std::vector<Record> records_;
+    std::vector<std::uint32_t> ids_;
+    WideStats stats_;
+};
+
+/// The nearest element hit in `range` (smallest entry t; ties: smallest element index), as
+/// first_hit over the BIH gives it.
+template <Intersectable E>
+std::optional<ElementHit> first_hit(const WideTree<E>& wide, const Ray& ray, Interval range = {}) {
+    std::optional<ElementHit> best;
+    float limit = range.t1;
+    const auto probe = WideTree<E>::probe(ray, range);
+    wide.for_each_leaf(
+        ray, range, [&] { return limit; },
+        [&](std::uint32_t first, std::uint32_t count) {
+            wide.leaf_hits(first, count, probe, [&](const ElementHit& h) {
+                if (!best || hit_before(h, *best)) {
+                    best = h;
+                    limit = h.t.t0;
+                }
+            });
+        });
+    return best;
+}
+
+/// Every element hit in `range`, sorted by hit_before, as all_hits over the BIH gives them.
+/// Leaves come nearest entry first, so the insertion sort stays short.
+template <Intersectable E>
+void all_hits(const WideTree<E>& wide, const Ray& ray, std::vector<ElementHit>& out, Interval range = {}) {
+    out.clear();
+    const auto probe = WideTree<E>::probe(ray, range);
+    wide.for_each_leaf_any_order(
+        ray, range, [&](std::uint32_t first, std::uint32_t count) {
+            wide.leaf_hits(first, count, probe, [&](const ElementHit& h) { out.push_back(h); });
+        });
+    std::sort(out.begin(), out.end(), hit_before);
+}
+
+}  // namespace sylva::bih
+
+#endif  // SYLVA_BIH_WIDE_HPP

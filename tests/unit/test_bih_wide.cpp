@@ -1,0 +1,275 @@
+// bih::WideTree (a BIH collapsed into 8-wide nodes for host queries) against brute force.
+#include <catch2/catch.hpp>
+
+#include <random>
+#include <set>
+
+#include <sylva/bih/build.hpp>
+#include <sylva/bih/wide.hpp>
+
+#include "generators.hpp"
+
+using namespace sylva;
+
+namespace {
+
+struct Source {
+    const char* name;
+    bih::Config build;
+};
+
+std::vector<Source> sources() {
+    bih::Config infinite, leaf4;
+    infinite.empty_children = bih::EmptyChildren::Infinite;
+    leaf4.max_leaf_elements = 4;
+    leaf4.trim_leaves = false;
+    return {{"default (trim-both, 1 a leaf)", {}},
+            {"infinite planes", infinite},
+            {"4 a leaf", leaf4},
+            {"for_queries (32 a leaf)", bih::Config::for_queries()}};
+}
+
+/// first_hit and all_hits over WideTrees of several BIHs and leaf sizes equal brute force.
+template <class E>
+void check_wide_against_brute_force(const std::vector<E>& elems, const std::vector<Ray>& rays) {
+    std::span<const E> es(elems);
+    ThreadPool pool(2);
+    for (const Source& src : sources()) {
+        bih::Tree tree = bih::build(es, src.build, pool);
+        for (std::uint32_t leaf : {1u, 4u, 8u}) {
+            INFO("BIH " << src.name << ", WideConfig::max_leaf_elements " << leaf);
+            bih::WideTree<E> wide(tree, es, bih::WideConfig{leaf});
+            REQUIRE(wide.stats().nodes > 0);
+            std::vector<bih::ElementHit> hits;
+            std::size_t total = 0, mismatches = 0;
+            for (std::size_t i = 0; i < rays.size(); ++i) {
+                Interval range = i % 5 == 0 ? Interval{0.25f, 1.75f} : Interval{};
+                auto expected = bih::brute_force_hits(es, rays[i], range);
+                bih::all_hits(wide, rays[i], hits, range);
+                total += expected.size();
+                if (hits != expected) ++mismatches;
+                auto first = bih::first_hit(wide, rays[i], range);
+                if (expected.empty() ? first.has_value() : (!first || *first != expected.front())) ++mismatches;
+            }
+            CHECK(mismatches == 0);
+            CHECK(total > rays.size() / 10);  // the rays really hit things
+        }
+    }
+}
+
+/// Every element sits in exactly one leaf, and every child box holds the boxes of what lies below.
+template <class E>
+void check_structure(const bih::WideTree<E>& wide, std::span<const E> es) {
+    std::multiset<std::uint32_t> seen;
+    std::size_t leaves = 0;
+    auto nodes = wide.nodes();
+    std::vector<std::pair<std::uint32_t, Aabb>> todo{{0u, Aabb{vec3(-1e30f), vec3(1e30f)}}};
+    while (!todo.empty()) {
+        auto [at, outer] = todo.back();
+        todo.pop_back();
+        const bih::WideNode& n = nodes[at];
+        for (int c = 0; c < bih::kWideWidth; ++c) {
+            if (n.child[c] == bih::kNoChild) continue;
+            Aabb box{vec3(n.box[0][c], n.box[2][c], n.box[4][c]), vec3(n.box[1][c], n.box[3][c], n.box[5][c])};
+            CHECK(outer.contains(box));
+            if (n.count[c] == 0) {
+                todo.push_back({n.child[c], box});
+                continue;
+            }
+            ++leaves;
+            wide.for_each_leaf_element(n.child[c], n.count[c], [&](std::uint32_t id) {
+                seen.insert(id);
+                CHECK(box.contains(bounds_of(es[id])));
+            });
+        }
+    }
+    CHECK(leaves == wide.stats().leaves);
+    REQUIRE(seen.size() == es.size());
+    std::uint32_t expect = 0;
+    for (std::uint32_t id : seen) CHECK(id == expect++);
+}
+
+}  // namespace
+
+TEST_CASE("queries over a WideTree equal brute force on spheres", "[bih][wide]") {
+    auto elems = testing::random_spheres(3000, 71);
+    elems[7].radius = 0.0f;     // a point: never hit
+    elems[8] = elems[9];        // coincident twins: both reported, ordered by index
+    elems[10].radius = 1e-30f;  // r * r underflows to 0: never hit
+    auto rays = testing::random_rays(20000, {vec3(-1.0f), vec3(1.0f)}, 72);
+    rays.push_back({vec3(0.0f), vec3(0.0f)});  // no direction: no hits
+    rays.push_back({elems[8].center - vec3(2.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)});
+    check_wide_against_brute_force(elems, rays);
+}
+
+TEST_CASE("queries over a WideTree equal brute force on random, clustered and degenerate boxes", "[bih][wide]") {
+    check_wide_against_brute_force(testing::random_boxes(3000, 73),
+                                   testing::random_rays(10000, {vec3(0.0f), vec3(1.05f)}, 74));
+    check_wide_against_brute_force(testing::clustered_boxes(3000, 75),
+                                   testing::random_rays(10000, {vec3(0.0f), vec3(10.0f)}, 76));
+    check_wide_against_brute_force(testing::degenerate_boxes(2000, 77),
+                                   testing::random_rays(10000, {vec3(0.0f), vec3(1.0f)}, 78));
+}
+
+TEST_CASE("a WideTree holds every element once, inside every box above it", "[bih][wide]") {
+    auto spheres = testing::random_spheres(5000, 79);
+    auto boxes = testing::degenerate_boxes(3000, 80);
+    std::span<const Sphere> ss(spheres);
+    std::span<const BoxElement> bs(boxes);
+    for (const Source& src : sources()) {
+        INFO("BIH " << src.name);
+        for (std::uint32_t leaf : {1u, 4u, 8u}) {
+            check_structure(bih::WideTree<Sphere>(bih::build(ss, src.build), ss, bih::WideConfig{leaf}), ss);
+            check_structure(bih::WideTree<BoxElement>(bih::build(bs, src.build), bs, bih::WideConfig{leaf}), bs);
+        }
+    }
+}
+
+TEST_CASE("WideTree rays lying in box planes see the closed boxes", "[bih][wide]") {
+    auto elems = testing::grid_boxes(8);  // unit cells: rays along integer planes touch two cells
+    std::span<const BoxElement> es(elems);
+    bih::WideTree<BoxElement> wide(bih::build(es, bih::Config{}), es);
+    std::vector<bih::ElementHit> hits;
+    std::size_t mismatches = 0, total = 0;
+    for (int k = 0; k <= 8; ++k)
+        for (int j = 0; j <= 8; ++j) {
+            float y = static_cast<float>(k), z = static_cast<float>(j);
+            for (vec3 dir : {vec3(1.0f, 0.0f, 0.0f), vec3(-1.0f, -0.0f, 0.0f), vec3(1.0f, 0.0f, -0.0f)}) {
+                Ray r{vec3(dir.x > 0 ? -1.0f : 9.0f, y, z), dir};
+                auto expected = bih::brute_force_hits(es, r);
+                bih::all_hits(wide, r, hits);
+                total += expected.size();
+                mismatches += hits == expected ? 0 : 1;
+                auto first = bih::first_hit(wide, r);
+                mismatches += expected.empty() ? first.has_value() : (!first || *first != expected.front());
+            }
+        }
+    CHECK(mismatches == 0);
+    CHECK(total > 500);
+}
+
+TEST_CASE("WideTree spheres decide grazing rays exactly as Sphere::intersect", "[bih][wide]") {
+    std::mt19937 rng(81);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), rad(0.01f, 0.2f);
+    std::uniform_int_distribution<int> ulps(-40, 40);
+    std::vector<Sphere> elems(64);
+    for (auto& s : elems) s = Sphere{{u(rng), u(rng), u(rng)}, rad(rng), vec4(1.0f), 2.0f};
+    std::span<const Sphere> es(elems);
+    bih::WideTree<Sphere> wide(bih::build(es, bih::Config{}), es);
+    std::vector<bih::ElementHit> hits;
+    std::size_t rays = 0, mismatches = 0, grazing_hits = 0;
+    for (int k = 0; k < 40000; ++k) {
+        const Sphere& s = elems[static_cast<std::size_t>(k) % elems.size()];
+        vec3 dir = glm::normalize(vec3(u(rng), u(rng), u(rng)) + vec3(0.0f, 0.0f, 1e-3f));
+        vec3 side = glm::normalize(glm::cross(dir, vec3(u(rng), u(rng), u(rng))));
+        float dist = s.radius * (1.0f + static_cast<float>(ulps(rng)) * 0x1p-24f);
+        Ray r{s.center + side * dist - dir * 3.0f, dir};
+        auto expected = bih::brute_force_hits(es, r);
+        bih::all_hits(wide, r, hits);
+        ++rays;
+        if (hits != expected) ++mismatches;
+        for (const auto& h : expected) grazing_hits += &elems[h.element] == &s ? 1 : 0;
+    }
+    CHECK(mismatches == 0);
+    CHECK(grazing_hits > rays / 10);  // both sides of the rim occur
+    CHECK(grazing_hits < rays * 9 / 10);
+}
+
+TEST_CASE("a WideTree of 5000 coincident spheres (a leaf at the depth cap) answers exactly", "[bih][wide]") {
+    std::vector<Sphere> elems(5000, Sphere{vec3(0.5f), 0.1f, vec4(1.0f), 2.0f});
+    std::span<const Sphere> es(elems);
+    bih::Tree tree = bih::build(es, bih::Config{});
+    bih::WideTree<Sphere> wide(tree, es);
+    CHECK(wide.stats().depth <= SYLVA_BIH_DEPTH_CAP + 1);
+    std::vector<bih::ElementHit> hits;
+    bih::all_hits(wide, Ray{vec3(0.5f, 0.5f, -1.0f), vec3(0.0f, 0.0f, 1.0f)}, hits);
+    REQUIRE(hits.size() == elems.size());
+    for (std::uint32_t k = 0; k < hits.size(); ++k) CHECK(hits[k].element == k);  // ties: by index
+    auto first = bih::first_hit(wide, Ray{vec3(0.5f, 0.5f, -1.0f), vec3(0.0f, 0.0f, 1.0f)});
+    REQUIRE(first);
+    CHECK(first->element == 0u);
+}
+
+namespace {
+/// A user element without a default constructor (the WideTree copies it, never defaults it).
+struct PinnedBox {
+    explicit PinnedBox(const Aabb& b) : box(b) {}
+    Aabb box;
+    [[nodiscard]] Aabb bounds() const { return box; }
+    [[nodiscard]] std::optional<Interval> intersect(const Ray& ray, Interval range) const {
+        return clip(ray, box, range);
+    }
+};
+}  // namespace
+
+TEST_CASE("WideTree takes element types without a default constructor", "[bih][wide]") {
+    std::vector<PinnedBox> elems;
+    for (const BoxElement& b : testing::random_boxes(500, 82)) elems.emplace_back(b.box);
+    std::span<const PinnedBox> es(elems);
+    bih::WideTree<PinnedBox> wide(bih::build(es, bih::Config::for_queries()), es);
+    std::vector<bih::ElementHit> hits;
+    std::size_t mismatches = 0, total = 0;
+    for (const Ray& r : testing::random_rays(3000, {vec3(0.0f), vec3(1.05f)}, 83)) {
+        bih::all_hits(wide, r, hits);
+        auto expected = bih::brute_force_hits(es, r);
+        total += expected.size();
+        mismatches += hits == expected ? 0 : 1;
+    }
+    CHECK(mismatches == 0);
+    CHECK(total > 300);
+}
+
+TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothing", "[bih][wide][bad-input]") {
+    auto many = testing::random_spheres(200, 84);
+    auto few = testing::random_spheres(50, 85);
+    std::span<const Sphere> ms(many), fs(few);
+    bih::Tree big = bih::build(ms, bih::Config{});
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(big, fs), Catch::Contains("refers to element"));
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(big, ms, bih::WideConfig{0}), Catch::Contains("max_leaf_elements"));
+
+    bih::Tree cyclic = big;  // an inner node whose child links back to the root
+    for (auto& n : cyclic.nodes)
+        if (!n.leaf() && n.child[0] != bih::kNoChild) {
+            n.child[0] = 0;
+            break;
+        }
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(cyclic, ms), Catch::Contains("reached twice"));
+    bih::Tree dangling = big;
+    dangling.nodes[0].child[1] = static_cast<std::uint32_t>(dangling.nodes.size()) + 5u;
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(dangling, ms), Catch::Contains("links to node"));
+    bih::Tree past = big;
+    for (auto& n : past.nodes)
+        if (n.leaf()) n.first = static_cast<std::uint32_t>(past.order.size());
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(past, ms), Catch::Contains("past the tree's order"));
+
+    // A hand-made chain so deep that even collapsed (about seven levels a wide node) it is
+    // deeper than the cap: refused, so the query stacks stay bounded.
+    std::vector<Sphere> line;
+    for (int i = 0; i < 1000; ++i) line.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
+    bih::Tree deep;
+    deep.order.resize(line.size());
+    for (std::uint32_t i = 0; i < line.size(); ++i) deep.order[i] = i;
+    for (std::uint32_t i = 0; i + 1 < line.size(); ++i) {  // node 2i: inner; 2i+1: leaf of element i; 2i+2: the rest
+        bih::Node inner;
+        inner.axis = 0;
+        inner.child[0] = 2 * i + 1;
+        inner.child[1] = 2 * i + 2;
+        bih::Node leaf;
+        leaf.first = i;
+        leaf.count = 1;
+        deep.nodes.push_back(inner);
+        deep.nodes.push_back(leaf);
+    }
+    bih::Node last;
+    last.first = static_cast<std::uint32_t>(line.size()) - 1u;
+    last.count = 1;
+    deep.nodes.push_back(last);
+    std::span<const Sphere> ls(line);
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(deep, ls, bih::WideConfig{1}), Catch::Contains("deeper than"));
+
+    bih::WideTree<Sphere> empty;
+    std::vector<bih::ElementHit> hits{{1u, {}}};
+    bih::all_hits(empty, Ray{vec3(0.0f), vec3(1.0f, 0.0f, 0.0f)}, hits);
+    CHECK(hits.empty());
+    CHECK_FALSE(bih::first_hit(empty, Ray{vec3(0.0f), vec3(1.0f, 0.0f, 0.0f)}));
+}
