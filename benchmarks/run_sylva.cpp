@@ -48,6 +48,9 @@ void describe_configs(Report& report) {
                                "RangePayload; bih::first_hit / all_hits(words, tree, spheres) (elements via tree.order)");
     report.describe("float32", "as fixed16 with NodeFormat::Float32");
     report.describe("fixed16-leaf4", "bih::Config{max_leaf_elements = 4, trim_leaves = false}; otherwise as fixed16");
+    report.describe("wide", "bih::WideTree over the fixed16-leaf4 tree (WideConfig{}: 8-wide nodes, refitted boxes, up "
+                            "to 4 spheres a leaf in one packet); bih::first_hit / all_hits(wide); its build time is the "
+                            "leaf4 build plus the collapse (encode/.../wide)");
     report.describe("fixed16-query", "bih::Config::for_queries() (up to 32 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
                              "TreeChunks, 2}, RangePayload; bih::LeafRecords (spheres in leaf order, 16-byte records, "
                              "tested four at a time); bih::first_hit / all_hits(words, records)");
@@ -98,6 +101,15 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
     report.add(enc + "/fixed16-query-records", "sylva", "bytes",
                static_cast<double>(idx.query_records.records().size_bytes() + idx.query_records.ids().size_bytes()),
                "bytes", "", "fixed16-query");
+    idx.wide_ms = samples(opt.runs, opt.encode_budget_ms(), [&] {
+        idx.wide = {};
+        return time_ms([&] { idx.wide = bih::WideTree<Sphere>(idx.leaf4_tree, es, bih::WideConfig{}, pool); });
+    });
+    report.add(enc + "/wide", "sylva", "encode_ms", median(idx.wide_ms), "ms", "", "wide");
+    report.add(enc + "/wide", "sylva", "bytes", static_cast<double>(idx.wide.stats().bytes), "bytes", "", "wide");
+    report.add(enc + "/wide", "sylva", "wide_nodes", static_cast<double>(idx.wide.stats().nodes), "nodes", "", "wide");
+    report.add(enc + "/wide", "sylva", "wide_leaves", static_cast<double>(idx.wide.stats().leaves), "leaves", "",
+               "wide");
     report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build, "fixed16");
     report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build,
                "fixed16-leaf4");
@@ -109,7 +121,8 @@ std::vector<Variant> variants(const SylvaIndex& idx) {
     return {{"fixed16", &idx.tree, &idx.fixed16},
             {"float32", &idx.tree, &idx.float32},
             {"fixed16-leaf4", &idx.leaf4_tree, &idx.leaf4},
-            {"fixed16-query", &idx.query_tree, &idx.query, &idx.query_records}};
+            {"fixed16-query", &idx.query_tree, &idx.query, &idx.query_records},
+            {"wide", &idx.leaf4_tree, &idx.leaf4, nullptr, &idx.wide}};
 }
 
 FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
@@ -120,7 +133,9 @@ FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres,
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         for (std::size_t i = lo; i < hi; ++i) {
-            auto h = v.records ? bih::first_hit(w, *v.records, rays[i]) : bih::first_hit(w, tree, es, rays[i]);
+            auto h = v.wide      ? bih::first_hit(*v.wide, rays[i])
+                     : v.records ? bih::first_hit(w, *v.records, rays[i])
+                                 : bih::first_hit(w, tree, es, rays[i]);
             if (h) out.id[i] = h->element;
         }
     });
@@ -136,7 +151,9 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         std::vector<bih::ElementHit> hits;
         for (std::size_t i = lo; i < hi; ++i) {
-            if (v.records)
+            if (v.wide)
+                bih::all_hits(*v.wide, rays[i], hits);
+            else if (v.records)
                 bih::all_hits(w, *v.records, rays[i], hits);
             else
                 bih::all_hits(w, tree, es, rays[i], hits);
@@ -152,7 +169,9 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
 HitList sylva_hit_list(const Variant& v, const std::vector<Sphere>& spheres) {
     return [v, &spheres](const sylva::Ray& ray) {
         std::vector<bih::ElementHit> hits;
-        if (v.records)
+        if (v.wide)
+            bih::all_hits(*v.wide, ray, hits);
+        else if (v.records)
             bih::all_hits(std::span<const std::uint32_t>(*v.words), *v.records, ray, hits);
         else
             bih::all_hits(std::span<const std::uint32_t>(*v.words), *v.tree, std::span<const Sphere>(spheres), ray, hits);
@@ -166,6 +185,15 @@ TraversalCost sylva_cost(const Variant& v, const std::vector<Sphere>& spheres, s
                          bool first) {
     rays = rays.first(std::min<std::size_t>(rays.size(), 10000));
     double steps = 0.0, leaves = 0.0;
+    double n = static_cast<double>(std::max<std::size_t>(rays.size(), 1));
+    if (v.wide) {  // wide nodes and leaves of the all-hits walk (first hit prunes some of them)
+        for (const sylva::Ray& ray : rays) {
+            auto visits = v.wide->visits(ray);
+            steps += static_cast<double>(visits.nodes);
+            leaves += static_cast<double>(visits.leaves);
+        }
+        return {steps / n, leaves / n};
+    }
     for (const sylva::Ray& ray : rays) {
         bih::LeafIterator it(std::span<const std::uint32_t>(*v.words), ray);
         float best = std::numeric_limits<float>::infinity();
@@ -180,7 +208,6 @@ TraversalCost sylva_cost(const Variant& v, const std::vector<Sphere>& spheres, s
         }
         steps += it.steps();
     }
-    double n = static_cast<double>(std::max<std::size_t>(rays.size(), 1));
     return {steps / n, leaves / n};
 }
 

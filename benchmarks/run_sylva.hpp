@@ -9,6 +9,7 @@
 
 #include <sylva/bih/query.hpp>
 #include <sylva/bih/tree.hpp>
+#include <sylva/bih/wide.hpp>
 #include <sylva/core/executor.hpp>
 
 #include "bench.hpp"
@@ -27,6 +28,8 @@ struct SylvaIndex {
     sylva::bih::Tree query_tree;
     std::vector<std::uint32_t> query;  ///< fixed16 encoding of query_tree
     sylva::bih::LeafRecords<sylva::Sphere> query_records;
+    sylva::bih::WideTree<sylva::Sphere> wide;  ///< leaf4_tree collapsed (bih::WideTree, WideConfig{})
+    std::vector<double> wide_ms;               ///< the collapse's timed runs
 };
 
 /// One encoding the traversal cases run: its name in case names, its tree and words, and the
@@ -36,8 +39,9 @@ struct Variant {
     const sylva::bih::Tree* tree;
     const std::vector<std::uint32_t>* words;
     const sylva::bih::LeafRecords<sylva::Sphere>* records = nullptr;
+    const sylva::bih::WideTree<sylva::Sphere>* wide = nullptr;  ///< queries run on this when set
 };
-/// fixed16 and float32 of the default tree, fixed16-leaf4, then fixed16-query.
+/// fixed16 and float32 of the default tree, fixed16-leaf4, fixed16-query, then wide.
 std::vector<Variant> variants(const SylvaIndex& idx);
 
 /// What each configuration name in case names means (build and encode settings, query path).

@@ -446,25 +446,44 @@ SYLVA_FORCEINLINE int inside4(__m128 pp, __m128 rr) {
     return (_mm_movemask_pd(lo) | (_mm_movemask_pd(hi) << 2)) & positive;
 }
 
+/// Lanes whose squared distance pp from the ray and squared radius rr sphere4 goes on to test
+/// exactly: a superset of inside4, as pp <= rr (1 + 2^-24) implies pp < fl(rr (1 + 2^-21)) for
+/// normal rr (tiny rr, where the product may not grow, always pass).
+SYLVA_FORCEINLINE int maybe_inside4(__m128 pp, __m128 rr) {
+    __m128 maybe = _mm_or_ps(_mm_cmple_ps(pp, _mm_mul_ps(rr, _mm_set1_ps(1.0f + 0x1p-21f))),
+                             _mm_cmplt_ps(rr, _mm_set1_ps(0x1p-100f)));
+    return _mm_movemask_ps(maybe);
+}
+
+/// The ray's closest approach to four spheres: tc (as Sphere::intersect computes it) and the
+/// squared distance pp there.
+SYLVA_FORCEINLINE void approach4(const SphereProbe& p, __m128 cx, __m128 cy, __m128 cz, __m128& tc, __m128& pp) {
+    __m128 ocx = _mm_sub_ps(cx, p.o[0]), ocy = _mm_sub_ps(cy, p.o[1]), ocz = _mm_sub_ps(cz, p.o[2]);
+    __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ocx, p.d[0]), _mm_mul_ps(ocy, p.d[1])), _mm_mul_ps(ocz, p.d[2]));
+    tc = _mm_div_ps(dot, p.dd);
+    __m128 px = _mm_sub_ps(_mm_add_ps(p.o[0], _mm_mul_ps(tc, p.d[0])), cx);
+    __m128 py = _mm_sub_ps(_mm_add_ps(p.o[1], _mm_mul_ps(tc, p.d[1])), cy);
+    __m128 pz = _mm_sub_ps(_mm_add_ps(p.o[2], _mm_mul_ps(tc, p.d[2])), cz);
+    pp = _mm_add_ps(_mm_add_ps(_mm_mul_ps(px, px), _mm_mul_ps(py, py)), _mm_mul_ps(pz, pz));
+}
+
+/// The lanes of four spheres that sphere4 would test exactly (no branch: for batches).
+SYLVA_FORCEINLINE int sphere4_maybe(const SphereProbe& p, __m128 cx, __m128 cy, __m128 cz, __m128 r) {
+    __m128 tc, pp;
+    approach4(p, cx, cy, cz, tc, pp);
+    return maybe_inside4(pp, _mm_mul_ps(r, r));
+}
+
 /// Entry and exit t of four spheres (transposed: centres cx, cy, cz and radii r) and the mask of
 /// those hit; sylva::Sphere::intersect's arithmetic lane by lane, so the same bits. Most groups
 /// miss: their exit is the exact test of q <= 1 (inside4) before any division by r^2 or square
 /// root. std::max(a, b) is (a < b) ? b : a, which is _mm_max_ps(b, a); std::min likewise.
 SYLVA_FORCEINLINE int sphere4(const SphereProbe& p, __m128 cx, __m128 cy, __m128 cz, __m128 r, __m128& t0,
                               __m128& t1) {
-    __m128 ocx = _mm_sub_ps(cx, p.o[0]), ocy = _mm_sub_ps(cy, p.o[1]), ocz = _mm_sub_ps(cz, p.o[2]);
-    __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ocx, p.d[0]), _mm_mul_ps(ocy, p.d[1])), _mm_mul_ps(ocz, p.d[2]));
-    __m128 tc = _mm_div_ps(dot, p.dd);
-    __m128 px = _mm_sub_ps(_mm_add_ps(p.o[0], _mm_mul_ps(tc, p.d[0])), cx);
-    __m128 py = _mm_sub_ps(_mm_add_ps(p.o[1], _mm_mul_ps(tc, p.d[1])), cy);
-    __m128 pz = _mm_sub_ps(_mm_add_ps(p.o[2], _mm_mul_ps(tc, p.d[2])), cz);
-    __m128 pp = _mm_add_ps(_mm_add_ps(_mm_mul_ps(px, px), _mm_mul_ps(py, py)), _mm_mul_ps(pz, pz));
+    __m128 tc, pp;
+    approach4(p, cx, cy, cz, tc, pp);
     __m128 rr = _mm_mul_ps(r, r);
-    // Float prefilter, a superset of inside4: pp <= rr (1 + 2^-24) implies pp < fl(rr (1 + 2^-21))
-    // for normal rr (tiny rr, where the product may not grow, always pass to the exact test).
-    __m128 maybe = _mm_or_ps(_mm_cmple_ps(pp, _mm_mul_ps(rr, _mm_set1_ps(1.0f + 0x1p-21f))),
-                             _mm_cmplt_ps(rr, _mm_set1_ps(0x1p-100f)));
-    if (_mm_movemask_ps(maybe) == 0) return 0;
+    if (maybe_inside4(pp, rr) == 0) return 0;  // most groups: a cheap float test first
     int inside = inside4(pp, rr) & _mm_movemask_ps(_mm_cmpgt_ps(r, _mm_setzero_ps()));
     if (inside == 0) return 0;
     __m128 q = _mm_div_ps(pp, rr);

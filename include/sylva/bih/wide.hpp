@@ -236,23 +236,21 @@ public:
         }
     }
 
-    /// Calls on_leaf(first, count) for each leaf the ray's [range] enters, in no particular
-    /// order (for queries that sort their hits anyway): the leaves of a node are reported as
-    /// soon as the node is tested, its inner children are pushed without branches, and the
-    /// last one pushed is visited next without a pop.
-    template <class OnLeaf>
-    void for_each_leaf_any_order(const Ray& ray, Interval range, OnLeaf&& on_leaf) const {
+    /// Calls on_leaves(leaves, n) with batches of the leaves (first, count) the ray's [range]
+    /// enters, in no particular order (for queries that sort their hits anyway). The walk only
+    /// gathers leaves; testing them in batches keeps the walk's branches independent of what
+    /// the leaves hold, and lets the batch's loads and tests overlap.
+    template <class OnLeaves>
+    void for_each_leaf_any_order(const Ray& ray, Interval range, OnLeaves&& on_leaves) const {
         if (nodes_.empty() || range.empty()) return;
         detail::WideRay r(ray);
         std::uint32_t stack[kStack];
         std::uint32_t sp = 0, node = 0;
-        // Leaves are gathered while the tree is walked and tested in batches: the walk keeps no
-        // branches on what the leaves hold, and the batch's loads are all known up front.
         constexpr std::uint32_t kFound = 64;
         std::pair<std::uint32_t, std::uint32_t> found[kFound];
         std::uint32_t nf = 0;
         auto flush = [&] {
-            for (std::uint32_t k = 0; k < nf; ++k) on_leaf(found[k].first, found[k].second);
+            on_leaves(static_cast<const std::pair<std::uint32_t, std::uint32_t>*>(found), nf);
             nf = 0;
         };
         for (;;) {
@@ -272,6 +270,34 @@ public:
             node = stack[--sp];
         }
         flush();
+    }
+
+    /// How much of the tree all_hits visits for one ray: wide nodes tested and leaves entered
+    /// (for benchmarks and tests; the same walk as for_each_leaf_any_order).
+    struct Visits {
+        std::size_t nodes = 0, leaves = 0;
+    };
+    [[nodiscard]] Visits visits(const Ray& ray, Interval range = {}) const {
+        Visits v;
+        if (nodes_.empty() || range.empty()) return v;
+        detail::WideRay r(ray);
+        std::uint32_t stack[kStack];
+        std::uint32_t sp = 0;
+        stack[sp++] = 0;
+        while (sp > 0) {
+            const WideNode& n = nodes_[stack[--sp]];
+            ++v.nodes;
+            float tn[kWideWidth];
+            int mask = detail::enter_children(n, r, range.t0, range.t1, tn);
+            for (int c = 0; c < kWideWidth; ++c)
+                if (mask & (1 << c)) {
+                    if (n.count[c])
+                        ++v.leaves;
+                    else
+                        stack[sp++] = n.child[c];
+                }
+        }
+        return v;
     }
 
     /// Calls f(element index) for each element of a leaf (first, count), in leaf order.
@@ -321,6 +347,39 @@ public:
             for (std::uint32_t k = first; k < first + count; ++k)
                 if (auto t = intersect_element(records_[k], p.first, p.second)) sink(ElementHit{ids_[k], *t});
         }
+    }
+
+    /// Calls sink(ElementHit) for each element hit in a batch of leaves (from
+    /// for_each_leaf_any_order). Spheres in two passes: a branch-free prefilter over every
+    /// packet (the division and the distance, overlapping from packet to packet), then the
+    /// exact test of the few packets some sphere of which may be hit.
+    template <class Sink>
+    void batch_hits(const std::pair<std::uint32_t, std::uint32_t>* leaves, std::uint32_t n, const Probe& p,
+                    Sink&& sink) const {
+#ifdef SYLVA_BIH_QUERY_SSE
+        if constexpr (kSpheres) {
+            if (!p.valid) return;
+            constexpr std::uint32_t kCap = 128;
+            std::uint32_t cand[kCap], nc = 0;
+            auto test_candidates = [&] {
+                for (std::uint32_t j = 0; j < nc; ++j) leaf_hits(cand[j], 1u, p, sink);
+                nc = 0;
+            };
+            for (std::uint32_t i = 0; i < n; ++i)
+                for (std::uint32_t k = leaves[i].first; k < leaves[i].first + leaves[i].second; ++k) {
+                    const SpherePacket& s = records_[k];
+                    cand[nc] = k;
+                    nc += detail::sphere4_maybe(p, _mm_load_ps(s.c[0]), _mm_load_ps(s.c[1]), _mm_load_ps(s.c[2]),
+                                                _mm_load_ps(s.r)) != 0
+                              ? 1u
+                              : 0u;
+                    if (nc == kCap) test_candidates();
+                }
+            test_candidates();
+            return;
+        }
+#endif
+        for (std::uint32_t i = 0; i < n; ++i) leaf_hits(leaves[i].first, leaves[i].second, p, sink);
     }
 
 private:
@@ -659,10 +718,9 @@ template <Intersectable E>
 void all_hits(const WideTree<E>& wide, const Ray& ray, std::vector<ElementHit>& out, Interval range = {}) {
     out.clear();
     const auto probe = WideTree<E>::probe(ray, range);
-    wide.for_each_leaf_any_order(
-        ray, range, [&](std::uint32_t first, std::uint32_t count) {
-            wide.leaf_hits(first, count, probe, [&](const ElementHit& h) { out.push_back(h); });
-        });
+    wide.for_each_leaf_any_order(ray, range, [&](const std::pair<std::uint32_t, std::uint32_t>* leaves, std::uint32_t n) {
+        wide.batch_hits(leaves, n, probe, [&](const ElementHit& h) { out.push_back(h); });
+    });
     std::sort(out.begin(), out.end(), hit_before);
 }
 
