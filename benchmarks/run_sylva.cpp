@@ -48,9 +48,9 @@ void describe_configs(Report& report) {
                                "RangePayload; bih::first_hit / all_hits(words, tree, spheres) (elements via tree.order)");
     report.describe("float32", "as fixed16 with NodeFormat::Float32");
     report.describe("fixed16-leaf4", "bih::Config{max_leaf_elements = 4, trim_leaves = false}; otherwise as fixed16");
-    report.describe("wide", "bih::WideTree over the fixed16-leaf4 tree (WideConfig{}: 8-wide nodes, refitted boxes, up "
-                            "to 4 spheres a leaf in one packet); bih::first_hit / all_hits(wide); its build time is the "
-                            "leaf4 build plus the collapse (encode/.../wide)");
+    report.describe("wide", "bih::WideTree over the fixed16-leaf4 tree (WideConfig{}: 8-wide nodes, refitted boxes, "
+                            "leaves of up to 4 spheres, 8 above 2^19 spheres, in packets of four); bih::first_hit / "
+                            "all_hits(wide); its build time is the leaf4 build plus the collapse (encode/.../wide)");
     report.describe("fixed16-query", "bih::Config::for_queries() (up to 32 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
                              "TreeChunks, 2}, RangePayload; bih::LeafRecords (spheres in leaf order, 16-byte records, "
                              "tested four at a time); bih::first_hit / all_hits(words, records)");

@@ -2,6 +2,7 @@
 #ifndef SYLVA_TESTS_GENERATORS_HPP
 #define SYLVA_TESTS_GENERATORS_HPP
 
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -67,6 +68,16 @@ inline std::vector<BoxElement> grid_boxes(int n) {
                 if ((x * 7 + y * 3 + z * 5) % 4 != 0) out.push_back({{vec3(x, y, z), vec3(x + 1, y + 1, z + 1)}});
     return out;
 }
+
+/// A user element without a default constructor (query structures must copy it, not default it).
+struct PinnedBox {
+    explicit PinnedBox(const Aabb& b) : box(b) {}
+    Aabb box;
+    [[nodiscard]] Aabb bounds() const { return box; }
+    [[nodiscard]] std::optional<Interval> intersect(const Ray& ray, Interval range) const {
+        return clip(ray, box, range);
+    }
+};
 
 inline std::vector<Sphere> random_spheres(std::size_t n, std::uint32_t seed) {
     std::mt19937 rng(seed);

@@ -377,17 +377,7 @@ TEST_CASE("spheres four at a time decide grazing rays exactly as Sphere::interse
     CHECK(grazing_hits < rays * 9 / 10);
 }
 
-namespace {
-/// A user element without a default constructor (LeafRecords must copy it, not default it).
-struct PinnedBox {
-    explicit PinnedBox(const Aabb& b) : box(b) {}
-    Aabb box;
-    [[nodiscard]] Aabb bounds() const { return box; }
-    [[nodiscard]] std::optional<Interval> intersect(const Ray& ray, Interval range) const {
-        return clip(ray, box, range);
-    }
-};
-}  // namespace
+using testing::PinnedBox;
 
 TEST_CASE("LeafRecords takes element types without a default constructor", "[bih][iter]") {
     std::vector<PinnedBox> elems;

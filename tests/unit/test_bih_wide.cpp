@@ -36,7 +36,7 @@ void check_wide_against_brute_force(const std::vector<E>& elems, const std::vect
     ThreadPool pool(2);
     for (const Source& src : sources()) {
         bih::Tree tree = bih::build(es, src.build, pool);
-        for (std::uint32_t leaf : {1u, 4u, 8u}) {
+        for (std::uint32_t leaf : {0u, 1u, 4u, 8u}) {
             INFO("BIH " << src.name << ", WideConfig::max_leaf_elements " << leaf);
             bih::WideTree<E> wide(tree, es, bih::WideConfig{leaf});
             REQUIRE(wide.stats().nodes > 0);
@@ -111,6 +111,30 @@ TEST_CASE("queries over a WideTree equal brute force on random, clustered and de
                                    testing::random_rays(10000, {vec3(0.0f), vec3(1.0f)}, 78));
 }
 
+TEST_CASE("WideConfig chooses the leaf size by the tree's size unless told", "[bih][wide]") {
+    CHECK(bih::WideConfig{}.leaf_size(1000) == 4u);
+    CHECK(bih::WideConfig{}.leaf_size(bih::WideConfig::kSmallTree) == 4u);
+    CHECK(bih::WideConfig{}.leaf_size(bih::WideConfig::kSmallTree + 1) == 8u);
+    CHECK(bih::WideConfig{3}.leaf_size(1u << 24) == 3u);
+    // Leaves hold at most the chosen size (or a whole BIH leaf), so the choice shows in the tree.
+    auto spheres = testing::random_spheres(20000, 86);
+    std::span<const Sphere> ss(spheres);
+    bih::Tree tree = bih::build(ss, bih::Config{});  // one sphere a BIH leaf
+    bih::WideTree<Sphere> four(tree, ss), eight(tree, ss, bih::WideConfig{8});
+    CHECK(eight.stats().leaves < four.stats().leaves);
+    for (const auto* w : {&four, &eight}) {
+        std::size_t biggest = 0;
+        for (const bih::WideNode& n : w->nodes())
+            for (int c = 0; c < bih::kWideWidth; ++c)
+                if (n.count[c] != 0) {
+                    std::size_t k = 0;
+                    w->for_each_leaf_element(n.child[c], n.count[c], [&](std::uint32_t) { ++k; });
+                    biggest = std::max(biggest, k);
+                }
+        CHECK(biggest == (w == &four ? 4u : 8u));
+    }
+}
+
 TEST_CASE("a WideTree holds every element once, inside every box above it", "[bih][wide]") {
     auto spheres = testing::random_spheres(5000, 79);
     auto boxes = testing::degenerate_boxes(3000, 80);
@@ -118,7 +142,7 @@ TEST_CASE("a WideTree holds every element once, inside every box above it", "[bi
     std::span<const BoxElement> bs(boxes);
     for (const Source& src : sources()) {
         INFO("BIH " << src.name);
-        for (std::uint32_t leaf : {1u, 4u, 8u}) {
+        for (std::uint32_t leaf : {1u, 4u, 8u, 13u}) {
             check_structure(bih::WideTree<Sphere>(bih::build(ss, src.build), ss, bih::WideConfig{leaf}), ss);
             check_structure(bih::WideTree<BoxElement>(bih::build(bs, src.build), bs, bih::WideConfig{leaf}), bs);
         }
@@ -190,17 +214,7 @@ TEST_CASE("a WideTree of 5000 coincident spheres (a leaf at the depth cap) answe
     CHECK(first->element == 0u);
 }
 
-namespace {
-/// A user element without a default constructor (the WideTree copies it, never defaults it).
-struct PinnedBox {
-    explicit PinnedBox(const Aabb& b) : box(b) {}
-    Aabb box;
-    [[nodiscard]] Aabb bounds() const { return box; }
-    [[nodiscard]] std::optional<Interval> intersect(const Ray& ray, Interval range) const {
-        return clip(ray, box, range);
-    }
-};
-}  // namespace
+using testing::PinnedBox;
 
 TEST_CASE("WideTree takes element types without a default constructor", "[bih][wide]") {
     std::vector<PinnedBox> elems;
@@ -225,7 +239,6 @@ TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothin
     std::span<const Sphere> ms(many), fs(few);
     bih::Tree big = bih::build(ms, bih::Config{});
     CHECK_THROWS_WITH(bih::WideTree<Sphere>(big, fs), Catch::Contains("refers to element"));
-    CHECK_THROWS_WITH(bih::WideTree<Sphere>(big, ms, bih::WideConfig{0}), Catch::Contains("max_leaf_elements"));
 
     bih::Tree cyclic = big;  // an inner node whose child links back to the root
     for (auto& n : cyclic.nodes)

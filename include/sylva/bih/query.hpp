@@ -77,6 +77,15 @@ private:
 
 namespace detail {
 
+/// Starts loading the cache line at p (the host queries' nodes and records ahead of use).
+inline void prefetch(const void* p) {
+#if defined(__GNUC__) || defined(__clang__)
+    __builtin_prefetch(p);
+#else
+    (void)p;
+#endif
+}
+
 /// Walker layouts: read from the header at run time, or fixed at compile time for the two
 /// tree-chunk encodings (the default Fixed16 one and Float32), which saves a few cycles a node.
 inline constexpr int kAnyLayout = 0;
@@ -219,15 +228,6 @@ private:
         float t_in, t_out;
         std::uint32_t sp, steps;
     };
-
-    /// Starts loading the cache line at p (the children of the node being visited).
-    static void prefetch(const void* p) {
-#if defined(__GNUC__) || defined(__clang__)
-        __builtin_prefetch(p);
-#else
-        (void)p;
-#endif
-    }
 
     [[nodiscard]] std::uint32_t stride() const {
         if constexpr (Layout == kFixed16Chunks) return 2u;
