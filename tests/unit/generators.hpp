@@ -69,6 +69,32 @@ inline std::vector<BoxElement> grid_boxes(int n) {
     return out;
 }
 
+/// Spheres and rays that pass within a few ulps of a sphere's rim (ray k grazes sphere k % 64):
+/// q = (d/r)^2 lands on both sides of 1, where a sphere test that is not bit-exact with
+/// Sphere::intersect (another formula, a division skipped) disagrees with brute force.
+struct GrazingSet {
+    std::vector<Sphere> spheres;
+    std::vector<Ray> rays;
+    /// The sphere ray k grazes.
+    [[nodiscard]] std::uint32_t target(std::size_t k) const { return static_cast<std::uint32_t>(k % spheres.size()); }
+};
+inline GrazingSet grazing_set(std::size_t rays, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), rad(0.01f, 0.2f);
+    std::uniform_int_distribution<int> ulps(-40, 40);
+    GrazingSet g;
+    g.spheres.resize(64);
+    for (auto& s : g.spheres) s = Sphere{{u(rng), u(rng), u(rng)}, rad(rng), vec4(1.0f), 2.0f};
+    for (std::size_t k = 0; k < rays; ++k) {
+        const Sphere& s = g.spheres[g.target(k)];
+        vec3 dir = glm::normalize(vec3(u(rng), u(rng), u(rng)) + vec3(0.0f, 0.0f, 1e-3f));
+        vec3 side = glm::normalize(glm::cross(dir, vec3(u(rng), u(rng), u(rng))));
+        float dist = s.radius * (1.0f + static_cast<float>(ulps(rng)) * 0x1p-24f);
+        g.rays.push_back(Ray{s.center + side * dist - dir * 3.0f, dir});
+    }
+    return g;
+}
+
 /// A user element without a default constructor (query structures must copy it, not default it).
 struct PinnedBox {
     explicit PinnedBox(const Aabb& b) : box(b) {}
@@ -105,6 +131,23 @@ inline std::vector<Ray> random_rays(std::size_t n, const Aabb& box, std::uint32_
         out[i] = {o, dir};
     }
     return out;
+}
+
+/// 3000 random spheres with the awkward cases planted (a point, coincident twins, a radius whose
+/// square underflows) and 20000 random rays plus a ray with no direction and one through the
+/// twins' centres.
+struct SphereCases {
+    std::vector<Sphere> spheres;
+    std::vector<Ray> rays;
+};
+inline SphereCases sphere_cases(std::uint32_t seed) {
+    SphereCases c{random_spheres(3000, seed), random_rays(20000, {vec3(-1.0f), vec3(1.0f)}, seed + 1)};
+    c.spheres[7].radius = 0.0f;     // a point: never hit
+    c.spheres[8] = c.spheres[9];    // coincident twins: both reported, ordered by index
+    c.spheres[10].radius = 1e-30f;  // r * r underflows to 0: never hit
+    c.rays.push_back({vec3(0.0f), vec3(0.0f)});  // no direction: no hits
+    c.rays.push_back({c.spheres[8].center - vec3(2.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)});
+    return c;
 }
 
 }  // namespace sylva::testing

@@ -300,14 +300,8 @@ TEST_CASE("on corrupted encodings the host walker stops exactly where the shared
 }
 
 TEST_CASE("queries over LeafRecords equal brute force on spheres (four at a time)", "[bih][iter]") {
-    auto elems = testing::random_spheres(3000, 51);
-    elems[7].radius = 0.0f;             // a point: never hit
-    elems[8] = elems[9];                // coincident twins: both reported, ordered by index
-    elems[10].radius = 1e-30f;          // r * r underflows to 0: never hit
-    auto rays = testing::random_rays(20000, {vec3(-1.0f), vec3(1.0f)}, 52);
-    rays.push_back({vec3(0.0f), vec3(0.0f)});  // no direction: no hits
-    rays.push_back({elems[8].center - vec3(2.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)});  // through the twins' centres
-    check_records_against_brute_force(elems, rays);
+    auto c = testing::sphere_cases(51);
+    check_records_against_brute_force(c.spheres, c.rays);
 }
 
 TEST_CASE("queries over LeafRecords equal brute force on other elements", "[bih][iter]") {
@@ -347,34 +341,22 @@ TEST_CASE("queries refuse elements and encodings that do not belong together", "
 }
 
 TEST_CASE("spheres four at a time decide grazing rays exactly as Sphere::intersect", "[bih][iter]") {
-    // Rays passing within a few ulps of each sphere's rim: q = (d/r)^2 lands on both sides of 1,
-    // where a test that is not bit-exact (another formula, a division skipped) disagrees.
-    std::mt19937 rng(61);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f), rad(0.01f, 0.2f);
-    std::uniform_int_distribution<int> ulps(-40, 40);
-    std::vector<Sphere> elems(64);
-    for (auto& s : elems) s = Sphere{{u(rng), u(rng), u(rng)}, rad(rng), vec4(1.0f), 2.0f};
-    std::span<const Sphere> es(elems);
+    auto g = testing::grazing_set(40000, 61);
+    std::span<const Sphere> es(g.spheres);
     bih::Tree tree = bih::build(es, bih::Config::for_queries());
     auto words = bih::encode(tree, es, bih::RangePayload{}, {bih::NodeFormat::Float32, bih::Layout::TreeChunks, 2});
     bih::LeafRecords<Sphere> records(tree, es);
     std::vector<bih::ElementHit> hits;
-    std::size_t rays = 0, mismatches = 0, grazing_hits = 0;
-    for (int k = 0; k < 40000; ++k) {
-        const Sphere& s = elems[static_cast<std::size_t>(k) % elems.size()];
-        vec3 dir = glm::normalize(vec3(u(rng), u(rng), u(rng)) + vec3(0.0f, 0.0f, 1e-3f));
-        vec3 side = glm::normalize(glm::cross(dir, vec3(u(rng), u(rng), u(rng))));
-        float dist = s.radius * (1.0f + static_cast<float>(ulps(rng)) * 0x1p-24f);
-        Ray r{s.center + side * dist - dir * 3.0f, dir};
-        auto expected = bih::brute_force_hits(es, r);
-        bih::all_hits(std::span<const std::uint32_t>(words), records, r, hits);
-        ++rays;
+    std::size_t mismatches = 0, grazing_hits = 0;
+    for (std::size_t k = 0; k < g.rays.size(); ++k) {
+        auto expected = bih::brute_force_hits(es, g.rays[k]);
+        bih::all_hits(std::span<const std::uint32_t>(words), records, g.rays[k], hits);
         if (hits != expected) ++mismatches;
-        for (const auto& h : expected) grazing_hits += &elems[h.element] == &s ? 1 : 0;
+        for (const auto& h : expected) grazing_hits += h.element == g.target(k) ? 1 : 0;
     }
     CHECK(mismatches == 0);
-    CHECK(grazing_hits > rays / 10);       // both sides of the rim occur
-    CHECK(grazing_hits < rays * 9 / 10);
+    CHECK(grazing_hits > g.rays.size() / 10);  // both sides of the rim occur
+    CHECK(grazing_hits < g.rays.size() * 9 / 10);
 }
 
 using testing::PinnedBox;

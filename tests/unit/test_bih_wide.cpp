@@ -92,14 +92,8 @@ void check_structure(const bih::WideTree<E>& wide, std::span<const E> es) {
 }  // namespace
 
 TEST_CASE("queries over a WideTree equal brute force on spheres", "[bih][wide]") {
-    auto elems = testing::random_spheres(3000, 71);
-    elems[7].radius = 0.0f;     // a point: never hit
-    elems[8] = elems[9];        // coincident twins: both reported, ordered by index
-    elems[10].radius = 1e-30f;  // r * r underflows to 0: never hit
-    auto rays = testing::random_rays(20000, {vec3(-1.0f), vec3(1.0f)}, 72);
-    rays.push_back({vec3(0.0f), vec3(0.0f)});  // no direction: no hits
-    rays.push_back({elems[8].center - vec3(2.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)});
-    check_wide_against_brute_force(elems, rays);
+    auto c = testing::sphere_cases(71);
+    check_wide_against_brute_force(c.spheres, c.rays);
 }
 
 TEST_CASE("queries over a WideTree equal brute force on random, clustered and degenerate boxes", "[bih][wide]") {
@@ -173,30 +167,20 @@ TEST_CASE("WideTree rays lying in box planes see the closed boxes", "[bih][wide]
 }
 
 TEST_CASE("WideTree spheres decide grazing rays exactly as Sphere::intersect", "[bih][wide]") {
-    std::mt19937 rng(81);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f), rad(0.01f, 0.2f);
-    std::uniform_int_distribution<int> ulps(-40, 40);
-    std::vector<Sphere> elems(64);
-    for (auto& s : elems) s = Sphere{{u(rng), u(rng), u(rng)}, rad(rng), vec4(1.0f), 2.0f};
-    std::span<const Sphere> es(elems);
+    auto g = testing::grazing_set(40000, 81);
+    std::span<const Sphere> es(g.spheres);
     bih::WideTree<Sphere> wide(bih::build(es, bih::Config{}), es);
     std::vector<bih::ElementHit> hits;
-    std::size_t rays = 0, mismatches = 0, grazing_hits = 0;
-    for (int k = 0; k < 40000; ++k) {
-        const Sphere& s = elems[static_cast<std::size_t>(k) % elems.size()];
-        vec3 dir = glm::normalize(vec3(u(rng), u(rng), u(rng)) + vec3(0.0f, 0.0f, 1e-3f));
-        vec3 side = glm::normalize(glm::cross(dir, vec3(u(rng), u(rng), u(rng))));
-        float dist = s.radius * (1.0f + static_cast<float>(ulps(rng)) * 0x1p-24f);
-        Ray r{s.center + side * dist - dir * 3.0f, dir};
-        auto expected = bih::brute_force_hits(es, r);
-        bih::all_hits(wide, r, hits);
-        ++rays;
+    std::size_t mismatches = 0, grazing_hits = 0;
+    for (std::size_t k = 0; k < g.rays.size(); ++k) {
+        auto expected = bih::brute_force_hits(es, g.rays[k]);
+        bih::all_hits(wide, g.rays[k], hits);
         if (hits != expected) ++mismatches;
-        for (const auto& h : expected) grazing_hits += &elems[h.element] == &s ? 1 : 0;
+        for (const auto& h : expected) grazing_hits += h.element == g.target(k) ? 1 : 0;
     }
     CHECK(mismatches == 0);
-    CHECK(grazing_hits > rays / 10);  // both sides of the rim occur
-    CHECK(grazing_hits < rays * 9 / 10);
+    CHECK(grazing_hits > g.rays.size() / 10);  // both sides of the rim occur
+    CHECK(grazing_hits < g.rays.size() * 9 / 10);
 }
 
 TEST_CASE("a WideTree of 5000 coincident spheres (a leaf at the depth cap) answers exactly", "[bih][wide]") {
