@@ -62,11 +62,13 @@ struct Config {
     /// Called with the fraction of elements placed in leaves (0..1), possibly from several threads.
     std::function<void(double)> on_progress;
 
-    /// Settings for trees that serve element queries (bih::first_hit, bih::all_hits with
-    /// LeafRecords) rather than trimmed-leaf rendering: up to 16 elements a leaf, leaves not
-    /// trimmed (Kinkelin 5.1's one-element trimmed leaves cost ~5 nodes an element, and a query
-    /// visits many of them per leaf). Measured with sylva-bench's spheres and rays, 16 was within
-    /// 5 % of the best of 2..64 elements a leaf up to 10^6 spheres; at 10^7, 32 was ~15 % faster.
+    /// Settings for trees that serve element queries over their encoding (bih::first_hit,
+    /// bih::all_hits with LeafRecords) rather than trimmed-leaf rendering: up to 32 elements a
+    /// leaf, leaves not trimmed (Kinkelin 5.1's one-element trimmed leaves cost ~5 nodes an
+    /// element, and a query visits many of them per leaf). Measured with sylva-bench's spheres
+    /// and rays, 16 and 32 were within 5 % of the best of 2..64 elements a leaf up to 10^6
+    /// spheres; at 10^7, 32 was ~15 % faster. (A bih::WideTree, the fastest host queries, is
+    /// best made from a tree with 4 elements a leaf, untrimmed: bih/wide.hpp.)
     [[nodiscard]] static Config for_queries() {
         Config c;
         c.max_leaf_elements = 32;
