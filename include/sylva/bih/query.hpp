@@ -22,7 +22,9 @@
 #include <type_traits>
 #include <vector>
 
-#if defined(__SSE2__) || defined(_M_X64)
+// SSE2 paths where the target has them; SYLVA_BIH_QUERY_NO_SSE selects the portable scalar
+// paths instead (the tests build them too; they give the same hits).
+#if (defined(__SSE2__) || defined(_M_X64)) && !defined(SYLVA_BIH_QUERY_NO_SSE)
 #include <emmintrin.h>
 #define SYLVA_BIH_QUERY_SSE 1
 #endif

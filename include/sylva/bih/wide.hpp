@@ -337,7 +337,8 @@ public:
                 _mm_store_ps(hi, t1);
                 for (; mask != 0; mask &= mask - 1) {
                     int lane = lowest_bit(mask);
-                    sink(ElementHit{ids_[4 * k + static_cast<std::uint32_t>(lane)], Interval{lo[lane], hi[lane]}});
+                    std::size_t id_at = std::size_t{k} * 4u + static_cast<std::size_t>(lane);
+                    sink(ElementHit{ids_[id_at], Interval{lo[lane], hi[lane]}});
                 }
             }
 #else
@@ -347,8 +348,9 @@ public:
                     Sphere sp;
                     sp.center = vec3(s.c[0][lane], s.c[1][lane], s.c[2][lane]);
                     sp.radius = s.r[lane];
+                    std::size_t id_at = std::size_t{k} * 4u + static_cast<std::size_t>(lane);
                     if (sp.radius > 0.0f)
-                        if (auto t = sp.intersect(p.ray, p.range)) sink(ElementHit{ids_[4 * k + lane], *t});
+                        if (auto t = sp.intersect(p.ray, p.range)) sink(ElementHit{ids_[id_at], *t});
                 }
 #endif
         } else {
