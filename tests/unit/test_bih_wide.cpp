@@ -242,11 +242,13 @@ TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothin
     // A hand-made chain so deep that even collapsed (about seven levels a wide node) it is
     // deeper than the cap: refused, so the query stacks stay bounded.
     std::vector<Sphere> line;
-    for (int i = 0; i < 1000; ++i) line.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
+    for (int i = 0; i < 1000; ++i)
+        line.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
     bih::Tree deep;
     deep.order.resize(line.size());
     for (std::uint32_t i = 0; i < line.size(); ++i) deep.order[i] = i;
-    for (std::uint32_t i = 0; i + 1 < line.size(); ++i) {  // node 2i: inner; 2i+1: leaf of element i; 2i+2: the rest
+    // Node 2i is inner, 2i + 1 the leaf of element i, 2i + 2 the rest.
+    for (std::uint32_t i = 0; i + 1 < line.size(); ++i) {
         bih::Node inner;
         inner.axis = 0;
         inner.child[0] = 2 * i + 1;

@@ -1,27 +1,31 @@
 // sylva/bih/wide.hpp -- a host query structure made from a built BIH: its levels collapsed into
-// 4-wide nodes whose child boxes are refitted to the elements, tested four at a time.
+// 8-wide nodes whose child boxes are refitted to the elements and tested with SIMD slab tests.
 //
 // Why: the BIH's 8-byte nodes suit the GPU and the front-to-back integrators, but a host query
 // that only wants element hits pays ~15 ns for each of many binary node steps. Collapsing
-// binary levels into 4-wide nodes (as Embree turns its binary BVH into a BVH4) quarters the
-// steps' count, refitted boxes prune what the BIH's planes cannot (a BIH child is its parent's
-// box clipped on one axis), and one SSE slab test decides four children at once. The tree's
+// binary levels into 8-wide nodes (as Embree turns its binary BVH into a BVH8) cuts the steps
+// to about a quarter, refitted boxes prune what the BIH's planes cannot (a BIH child is its
+// parent's box clipped on one axis), and two SSE slab tests decide eight children. The tree's
 // topology, leaf ranges and element order are the BIH's; only the encoding differs. Made once
 // per tree, like LeafRecords; the BIH encoding is still what the GPU and the iterators read.
 //
-// Layout (all host memory, nothing is read from outside, so nothing to validate):
-//   WideNode (128 bytes, 64-aligned): box[6][4] = lo.x, hi.x, lo.y, hi.y, lo.z, hi.z of the
-//   four child slots; child[4], count[4]: an inner child is (wide node index, 0), a leaf is
-//   (first packet or record, number of them >= 1); an unused slot is (kNoChild, 0) with an
-//   empty box (lo = +inf, hi = -inf) that no ray enters.
+// Layout (all host memory, built here from a checked Tree, so nothing to validate on read):
+//   WideNode (256 bytes, 64-aligned): box[6][8] = lo.x, hi.x, lo.y, hi.y, lo.z, hi.z of the
+//   eight child slots; child[8], count[8]: an inner child is (wide node index, 0), a leaf is
+//   (first packet or record, number of them >= 1); slots are filled from 0, and an unused slot
+//   is (kNoChild, 0) with an empty box (lo = +inf, hi = -inf) that no ray enters.
 //   Spheres are stored in leaf order as packets of four (SoA centres and radii, 64 bytes);
-//   each leaf starts a new packet, unused lanes have radius 0 (never hit). Other element
-//   types are copied in leaf order and tested one by one.
+//   each leaf starts a new packet, unused lanes have radius 0 (never hit) and id kNoChild.
+//   Other element types are copied in leaf order and tested one by one.
+//
+// all_hits walks the nodes in any order and only gathers the leaves it enters; each batch of
+// leaves is then tested in two passes (a branch-free float prefilter over every packet, then
+// the exact test, bit-identical to Sphere::intersect, for the candidates), and the hits are
+// sorted at the end. first_hit walks nearest entry first and prunes what lies beyond its best.
 #ifndef SYLVA_BIH_WIDE_HPP
 #define SYLVA_BIH_WIDE_HPP
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -99,7 +103,7 @@ inline float half_area(const Aabb& b) {
     return e.x * e.y + e.y * e.z + e.z * e.x;
 }
 
-/// b grown outward by a few ulps of its magnitude, so that rounding in the four-wide slab test
+/// b grown outward by a few ulps of its magnitude, so that rounding in the SIMD slab test
 /// never drops a ray the exact element test would hit (grazing rays, axis-parallel rays).
 inline Aabb padded(const Aabb& b) {
     Aabb p = b;
@@ -112,7 +116,7 @@ inline Aabb padded(const Aabb& b) {
     return p;
 }
 
-/// The ray as the four-wide box test reads it.
+/// The ray as the child-box test reads it.
 struct WideRay {
     float org[3], rcp[3];
     int near_row[3], far_row[3];  ///< rows of WideNode::box holding each axis's entry / exit plane
@@ -127,7 +131,7 @@ struct WideRay {
     }
 };
 
-/// Entry t of the four child boxes and the mask of those the ray enters within [t0, t1].
+/// Entry t of the kWideWidth child boxes and the mask of those the ray enters in [t0, t1].
 /// A NaN slab (a ray lying in a box plane: 0 * inf) constrains nothing: max/min keep the
 /// other operand, so the test errs towards entering.
 SYLVA_FORCEINLINE int enter_children(const WideNode& n, const WideRay& r, float t0, float t1,
@@ -166,7 +170,7 @@ SYLVA_FORCEINLINE int enter_children(const WideNode& n, const WideRay& r, float 
 
 }  // namespace detail
 
-/// A BIH collapsed into 4-wide nodes for host queries (see the top of this file). Holds its
+/// A BIH collapsed into 8-wide nodes for host queries (see the top of this file). Holds its
 /// own copy of the elements in leaf order, so the caller's array may go; element indices in
 /// the hits are the caller's.
 template <Intersectable E>
@@ -178,7 +182,7 @@ public:
     /// Collapses `tree` (built over `elements`): the refit and the copy of the elements run in
     /// parallel on `exec`. Throws sylva::Error when the tree does not fit the elements (a link
     /// out of range, a node reached twice, a leaf past the order, an element index out of
-    /// range, more than SYLVA_BIH_DEPTH_CAP + 1 wide levels) or the config is invalid.
+    /// range, more than SYLVA_BIH_DEPTH_CAP + 1 wide levels).
     template <Executor X>
     WideTree(const Tree& tree, std::span<const E> elements, const WideConfig& cfg, X& exec) {
         for (std::uint32_t e : tree.order)
@@ -403,7 +407,8 @@ private:
 #ifdef SYLVA_BIH_QUERY_SSE
         int m = 0;
         for (int g = 0; g < kWideWidth; g += 4) {
-            __m128i zero = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(n.count + g)), _mm_setzero_si128());
+            __m128i counts = _mm_load_si128(reinterpret_cast<const __m128i*>(n.count + g));
+            __m128i zero = _mm_cmpeq_epi32(counts, _mm_setzero_si128());
             m |= (~_mm_movemask_ps(_mm_castsi128_ps(zero)) & 15) << g;
         }
         return m;
@@ -585,8 +590,9 @@ private:
             return w;
         }
 
-        /// Fills wide node `at` with up to four subtrees found below BIH node n: the one with the
-        /// largest box is opened until four are found or none can be opened (Embree's collapse).
+        /// Fills wide node `at` with up to kWideWidth subtrees found below BIH node n: the one with
+        /// the largest box is opened until the node is full or none can be opened (Embree's
+        /// collapse); small contiguous subtrees and BIH leaves become leaves.
         void make_node(std::uint32_t at, std::uint32_t n, std::uint32_t depth) {
             if (depth > kMaxDepth)
                 throw Error("bih::WideTree: the tree is deeper than " + std::to_string(SYLVA_BIH_DEPTH_CAP) +
@@ -715,12 +721,13 @@ std::optional<ElementHit> first_hit(const WideTree<E>& wide, const Ray& ray, Int
 }
 
 /// Every element hit in `range`, sorted by hit_before, as all_hits over the BIH gives them.
-/// Leaves come nearest entry first, so the insertion sort stays short.
+/// The leaves come in any order (see for_each_leaf_any_order); the hits are sorted at the end.
 template <Intersectable E>
 void all_hits(const WideTree<E>& wide, const Ray& ray, std::vector<ElementHit>& out, Interval range = {}) {
     out.clear();
     const auto probe = WideTree<E>::probe(ray, range);
-    wide.for_each_leaf_any_order(ray, range, [&](const std::pair<std::uint32_t, std::uint32_t>* leaves, std::uint32_t n) {
+    using LeafRef = std::pair<std::uint32_t, std::uint32_t>;
+    wide.for_each_leaf_any_order(ray, range, [&](const LeafRef* leaves, std::uint32_t n) {
         wide.batch_hits(leaves, n, probe, [&](const ElementHit& h) { out.push_back(h); });
     });
     std::sort(out.begin(), out.end(), hit_before);
