@@ -57,6 +57,8 @@
 #include <sylva/vulkan/kd_build.hpp>
 #endif
 
+#include "cli.hpp"
+
 using namespace sylva;
 
 namespace {
@@ -500,29 +502,24 @@ std::vector<std::string> split_list(const std::string& s) {
     return out;
 }
 
-Options parse(int argc, char** argv) {
+const char* kUsage =
+    "usage: sylva-kd-bench [--data DIR] [--runs N] [--quick] [--cases bonsai,aneurism,engine,"
+    "nbody256,nbody512,nbody1024] [--sections builders,levels,replay,gpu] [--json FILE]\n";
+
+/// Parses argv; sets `help` for --help; throws bench_cli::UsageError on bad usage.
+Options parse(int argc, char** argv, bool& help) {
     Options o;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
-        auto value = [&]() -> std::string {
-            if (i + 1 >= argc) {
-                std::fprintf(stderr, "sylva-kd-bench: %s needs a value\n", a.c_str());
-                std::exit(2);
-            }
-            return argv[++i];
-        };
+        auto value = [&] { return bench_cli::value_of(i, argc, argv); };
         if (a == "--data") o.data = value();
-        else if (a == "--runs") o.runs = std::max(1, std::atoi(value().c_str()));
+        else if (a == "--runs") o.runs = static_cast<int>(bench_cli::parse_count(a, value(), 1000));
         else if (a == "--quick") o.quick = true;
         else if (a == "--cases") o.cases = split_list(value());
         else if (a == "--sections") o.sections = split_list(value());
         else if (a == "--json") o.json = value();
-        else {
-            std::fprintf(stderr,
-                         "usage: sylva-kd-bench [--data DIR] [--runs N] [--quick] [--cases bonsai,aneurism,engine,"
-                         "nbody256,nbody512,nbody1024] [--sections builders,levels,replay,gpu] [--json FILE]\n");
-            std::exit(a == "--help" ? 0 : 2);
-        }
+        else if (a == "--help" || a == "-h") help = true;
+        else throw bench_cli::UsageError("unknown option '" + a + "'");
     }
     return o;
 }
@@ -586,7 +583,18 @@ bool run_one(const Case& c, const Options& o, Report& rep) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    Options o = parse(argc, argv);
+    Options o;
+    try {
+        bool help = false;
+        o = parse(argc, argv, help);
+        if (help) {
+            std::fputs(kUsage, stdout);
+            return 0;
+        }
+    } catch (const bench_cli::UsageError& e) {
+        std::fprintf(stderr, "sylva-kd-bench: %s\n%s", e.what(), kUsage);
+        return 2;
+    }
     double load[3] = {0, 0, 0};
     if (getloadavg(load, 3) < 0) load[0] = -1;
     std::printf("sylva-kd-bench: data %s, medians of %d runs, hardware threads %u, load average %.2f\n", o.data.c_str(),

@@ -33,6 +33,8 @@
 #include <sylva/volume/resample.hpp>
 #include <sylva/volume/voxels.hpp>
 
+#include "cli.hpp"
+
 #ifndef SYLVA_DATA_DIR
 #define SYLVA_DATA_DIR "../shared/data"
 #endif
@@ -41,9 +43,7 @@ namespace {
 
 using namespace sylva;
 
-struct UsageError : std::runtime_error {
-    using std::runtime_error::runtime_error;
-};
+using bench_cli::UsageError;
 
 struct Options {
     std::string data = SYLVA_DATA_DIR;
@@ -64,26 +64,15 @@ const char* kUsage =
     "Exit status: 0 on success, 1 when a volume is missing or unreadable (unless the environment\n"
     "sets SYLVA_ALLOW_MISSING_DATA=1: then those cases are left out), 2 on bad usage.\n";
 
-std::size_t parse_positive(const std::string& option, const std::string& text) {
-    char* end = nullptr;
-    unsigned long v = std::strtoul(text.c_str(), &end, 10);
-    if (text.empty() || *end != '\0' || v < 1 || v > 4096)
-        throw UsageError(option + ": '" + text + "' is not a whole number in 1..4096");
-    return v;
-}
-
 Options parse_options(int argc, char** argv) {
     Options o;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
-        auto value = [&]() -> std::string {
-            if (i + 1 >= argc) throw UsageError(a + " needs a value");
-            return argv[++i];
-        };
+        auto value = [&] { return bench_cli::value_of(i, argc, argv); };
         if (a == "--data") o.data = value();
         else if (a == "--json") o.json = value();
-        else if (a == "--threads") o.threads = parse_positive(a, value());
-        else if (a == "--runs") o.runs = parse_positive(a, value());
+        else if (a == "--threads") o.threads = bench_cli::parse_count(a, value(), 4096);
+        else if (a == "--runs") o.runs = bench_cli::parse_count(a, value(), 4096);
         else if (a == "--case") o.only = value();
         else if (a == "--help" || a == "-h") o.help = true;
         else throw UsageError("unknown option '" + a + "'");

@@ -9,16 +9,17 @@
 #include <string>
 #include <vector>
 
+#include "cli.hpp"
+
 #ifndef SYLVA_VOLUME_BENCH_DATA
 #define SYLVA_VOLUME_BENCH_DATA "../shared/data"
 #endif
 
 namespace volume_bench {
 
-/// Bad usage: reported with the usage text and exit status 2.
-struct UsageError : std::runtime_error {
-    using std::runtime_error::runtime_error;
-};
+using bench_cli::one_of;
+using bench_cli::parse_count;
+using bench_cli::UsageError;
 
 struct Options {
     std::string data = SYLVA_VOLUME_BENCH_DATA;
@@ -66,14 +67,6 @@ inline const char* usage() {
            "Exit status: 0 on success, 1 on errors (a missing volume names its path), 2 on bad usage.\n";
 }
 
-inline std::size_t parse_count(const std::string& option, const std::string& text, std::size_t max) {
-    char* end = nullptr;
-    unsigned long v = std::strtoul(text.c_str(), &end, 10);
-    if (text.empty() || text[0] == '-' || *end != '\0' || v < 1 || v > max)
-        throw UsageError(option + ": '" + text + "' is not a whole number in 1.." + std::to_string(max));
-    return v;
-}
-
 /// "WxH" with both in 1..8192.
 inline void parse_size(const std::string& text, Options& o) {
     std::size_t x = text.find('x');
@@ -109,22 +102,11 @@ inline float parse_alpha(const std::string& text) {
     return a;
 }
 
-inline std::string one_of(const std::string& option, const std::string& v, const std::vector<std::string>& allowed) {
-    for (const std::string& a : allowed)
-        if (v == a) return v;
-    std::string list;
-    for (const std::string& a : allowed) list += (list.empty() ? "" : "|") + a;
-    throw UsageError(option + ": '" + v + "' is not one of " + list);
-}
-
 inline Options parse_options(int argc, char** argv) {
     Options o;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
-        auto value = [&]() -> std::string {
-            if (i + 1 >= argc) throw UsageError(a + " needs a value");
-            return argv[++i];
-        };
+        auto value = [&] { return bench_cli::value_of(i, argc, argv); };
         if (a == "--data") o.data = value();
         else if (a == "--json") o.json = value();
         else if (a == "--size") parse_size(value(), o);
