@@ -109,25 +109,6 @@ inline void lod_visit(const FullBih& f, const LodConfig& cfg, const LodItem& it,
         if (has_child(n, c)) stack.push_back({n.child[c], self, c, it.depth + 1});
 }
 
-/// Nodes, leaves, single-child nodes and depth of a tree stored in pre-order.
-inline void measure_preorder(Tree& t) {
-    BuildStats& s = t.stats;
-    s.nodes = t.nodes.size();
-    std::vector<std::uint32_t> depth(t.nodes.size(), 0);
-    for (std::size_t i = 0; i < t.nodes.size(); ++i) {
-        const Node& n = t.nodes[i];
-        s.max_depth = std::max(s.max_depth, depth[i]);
-        if (n.leaf()) {
-            ++s.leaves;
-            s.max_leaf_elements = std::max(s.max_leaf_elements, n.count);
-            continue;
-        }
-        if (n.children() == 1) ++s.single_child_nodes;
-        for (int c = 0; c < 2; ++c)
-            if (has_child(n, c)) depth[n.child[c]] = depth[i] + 1;
-    }
-}
-
 }  // namespace detail
 
 /// Extracts a static LoD from a full BIH (see the top of this header). Throws sylva::Error for
@@ -154,7 +135,7 @@ inline Lod extract_lod(const FullBih& full, const LodConfig& config = {}) {
     }
     lod.tree.order.resize(lod.leaves.size());
     std::iota(lod.tree.order.begin(), lod.tree.order.end(), 0u);
-    detail::measure_preorder(lod.tree);
+    detail::measure(lod.tree);  // the builder's statistics: LoD children follow their parent too
     lod.tree.stats.elements = lod.leaves.size();
     lod.extract_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     lod.tree.stats.build_ms = lod.extract_ms;
