@@ -275,6 +275,7 @@ public:
             for (int m = inner; m != 0; m &= m - 1) stack[sp++] = n.child[lowest_bit(m)];
             for (int m = leaves; m != 0; m &= m - 1) {
                 int c = lowest_bit(m);
+                detail::prefetch(&records_[n.child[c]]);
                 found[nf++] = {n.child[c], n.count[c]};
             }
             if (nf > kFound - kWideWidth) flush();
