@@ -1,6 +1,8 @@
 // bih::WideTree (a BIH collapsed into 8-wide nodes for host queries) against brute force.
 #include <catch2/catch.hpp>
 
+#include <cstring>
+#include <limits>
 #include <random>
 #include <set>
 
@@ -272,3 +274,46 @@ TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothin
     CHECK(hits.empty());
     CHECK_FALSE(bih::first_hit(empty, Ray{vec3(0.0f), vec3(1.0f, 0.0f, 0.0f)}));
 }
+
+#ifdef SYLVA_BIH_WIDE_AVX2
+TEST_CASE("the AVX2 node test gives the SSE test's mask and entry t bit for bit", "[bih][wide]") {
+    if (!bih::detail::cpu_has_avx2()) {
+        WARN("this CPU has no AVX2: the AVX2 node test is not run");
+        return;
+    }
+    std::mt19937 rng(2024);
+    std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+    const float inf = std::numeric_limits<float>::infinity();
+    // Boxes with coincident, inverted and unused (lo = +inf, hi = -inf) slots; rays with zero,
+    // signed-zero and tiny direction components (inf reciprocals, NaN slabs in box planes).
+    const float specials[] = {0.0f, -0.0f, 1e-30f, -1e-30f, 1.0f};
+    std::size_t differing = 0, entered = 0, cases = 0;
+    for (int t = 0; t < 20000; ++t) {
+        bih::WideNode n{};
+        for (int c = 0; c < bih::kWideWidth; ++c) {
+            int kind = static_cast<int>(rng() % 8u);
+            for (int a = 0; a < 3; ++a) {
+                float x = u(rng), y = kind == 0 ? x : u(rng);
+                n.box[2 * a][c] = kind == 7 ? inf : std::min(x, y);
+                n.box[2 * a + 1][c] = kind == 7 ? -inf : (kind == 6 ? std::min(x, y) - 0.5f : std::max(x, y));
+            }
+        }
+        Ray ray{vec3(u(rng), u(rng), u(rng)), vec3(u(rng), u(rng), u(rng))};
+        if (t % 3 == 0) ray.direction[static_cast<int>(rng() % 3u)] = specials[rng() % 5u];
+        if (t % 5 == 0) ray.origin[static_cast<int>(rng() % 3u)] = n.box[rng() % 6u][rng() % 8u];  // in a plane
+        bih::detail::WideRay r(ray);
+        float t0 = t % 7 == 0 ? -inf : 0.0f, t1 = t % 11 == 0 ? 0.5f : inf;
+        float tn_sse[bih::kWideWidth], tn_avx[bih::kWideWidth];
+        int m_sse = bih::detail::BaseNodeTest::enter(n, r, t0, t1, tn_sse);
+        int m_avx = bih::detail::Avx2NodeTest::enter(n, r, t0, t1, tn_avx);
+        bool same = m_sse == m_avx;
+        for (int c = 0; c < bih::kWideWidth; ++c)
+            if (m_sse & (1 << c)) same = same && std::memcmp(&tn_sse[c], &tn_avx[c], sizeof(float)) == 0;
+        differing += same ? 0 : 1;
+        entered += static_cast<std::size_t>(__builtin_popcount(static_cast<unsigned>(m_sse)));
+        ++cases;
+    }
+    CHECK(differing == 0);
+    CHECK(entered > cases / 4);  // slots are entered often enough for the comparison to mean something
+}
+#endif

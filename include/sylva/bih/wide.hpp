@@ -5,9 +5,10 @@
 // that only wants element hits pays ~15 ns for each of many binary node steps. Collapsing
 // binary levels into 8-wide nodes (as Embree turns its binary BVH into a BVH8) cuts the steps
 // to about a quarter, refitted boxes prune what the BIH's planes cannot (a BIH child is its
-// parent's box clipped on one axis), and two SSE slab tests decide eight children. The tree's
-// topology, leaf ranges and element order are the BIH's; only the encoding differs. Made once
-// per tree, like LeafRecords; the BIH encoding is still what the GPU and the iterators read.
+// parent's box clipped on one axis), and two SSE slab tests (one AVX2 test where the CPU has
+// it, chosen at run time) decide eight children. The tree's topology, leaf ranges and element
+// order are the BIH's; only the encoding differs. Made once per tree, like LeafRecords; the
+// BIH encoding is still what the GPU and the iterators read.
 //
 // Layout (all host memory, built here from a checked Tree, so nothing to validate on read):
 //   WideNode (256 bytes, 64-aligned): box[6][8] = lo.x, hi.x, lo.y, hi.y, lo.z, hi.z of the
@@ -36,6 +37,15 @@
 #include <vector>
 
 #include "sylva/bih/query.hpp"
+
+// The node test picks AVX2 (one 8-lane slab test instead of two SSE ones) at run time where the
+// CPU has it, as Embree picks its kernels by ISA; the walk is compiled twice, once for each.
+// GCC only (target attributes and __builtin_cpu_supports); SYLVA_BIH_WIDE_NO_AVX2 keeps SSE.
+#if defined(SYLVA_BIH_QUERY_SSE) && defined(__GNUC__) && !defined(__clang__) && \
+    (defined(__x86_64__) || defined(__i386__)) && !defined(SYLVA_BIH_WIDE_NO_AVX2)
+#include <immintrin.h>
+#define SYLVA_BIH_WIDE_AVX2 1
+#endif
 #include "sylva/bih/tree.hpp"
 #include "sylva/core/concepts.hpp"
 #include "sylva/core/error.hpp"
@@ -168,6 +178,44 @@ SYLVA_FORCEINLINE int enter_children(const WideNode& n, const WideRay& r, float 
 #endif
 }
 
+/// The portable node test (SSE, or scalar without it).
+struct BaseNodeTest {
+    SYLVA_FORCEINLINE static int enter(const WideNode& n, const WideRay& r, float t0, float t1,
+                                       float tn_out[kWideWidth]) {
+        return enter_children(n, r, t0, t1, tn_out);
+    }
+};
+
+#ifdef SYLVA_BIH_WIDE_AVX2
+/// enter_children's arithmetic on all eight slots at once: the same operations lane by lane
+/// (subtract, multiply, maxps / minps keeping the second operand on NaN, ordered <=), so the
+/// same mask and entry t bit for bit. Only called from walks compiled for AVX2.
+struct Avx2NodeTest {
+    [[gnu::target("avx2")]] static inline int enter(const WideNode& n, const WideRay& r, float t0, float t1,
+                                                    float tn_out[kWideWidth]) {
+        __m256 tn = _mm256_set1_ps(t0), tf = _mm256_set1_ps(t1);
+        for (int a = 0; a < 3; ++a) {
+            __m256 o = _mm256_set1_ps(r.org[a]), k = _mm256_set1_ps(r.rcp[a]);
+            __m256 lo = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.box[r.near_row[a]]), o), k);
+            __m256 hi = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.box[r.far_row[a]]), o), k);
+            tn = _mm256_max_ps(lo, tn);
+            tf = _mm256_min_ps(hi, tf);
+        }
+        _mm256_storeu_ps(tn_out, tn);
+        return _mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
+    }
+};
+
+/// Whether this CPU (and its OS) runs AVX2 code; asked once.
+inline bool cpu_has_avx2() {
+    static const bool yes = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx2") != 0;
+    }();
+    return yes;
+}
+#endif
+
 }  // namespace detail
 
 /// A BIH collapsed into 8-wide nodes for host queries (see the top of this file). Holds its
@@ -211,6 +259,42 @@ public:
     template <class Limit, class OnLeaf>
     void for_each_leaf(const Ray& ray, Interval range, Limit&& limit, OnLeaf&& on_leaf) const {
         if (nodes_.empty() || range.empty()) return;
+#ifdef SYLVA_BIH_WIDE_AVX2
+        if (detail::cpu_has_avx2()) return nearest_first_avx2(ray, range, limit, on_leaf);
+#endif
+        nearest_first<detail::BaseNodeTest>(ray, range, limit, on_leaf);
+    }
+
+    /// Calls on_leaves(leaves, n) with batches of the leaves (first, count) the ray's [range]
+    /// enters, in no particular order (for queries that sort their hits anyway). The walk only
+    /// gathers leaves; testing them in batches keeps the walk's branches independent of what
+    /// the leaves hold, and lets the batch's loads and tests overlap.
+    template <class OnLeaves>
+    void for_each_leaf_any_order(const Ray& ray, Interval range, OnLeaves&& on_leaves) const {
+        if (nodes_.empty() || range.empty()) return;
+#ifdef SYLVA_BIH_WIDE_AVX2
+        if (detail::cpu_has_avx2()) return any_order_avx2(ray, range, on_leaves);
+#endif
+        any_order<detail::BaseNodeTest>(ray, range, on_leaves);
+    }
+
+private:
+#ifdef SYLVA_BIH_WIDE_AVX2
+    template <class Limit, class OnLeaf>
+    [[gnu::target("avx2")]] void nearest_first_avx2(const Ray& ray, Interval range, Limit& limit,
+                                                    OnLeaf& on_leaf) const {
+        nearest_first<detail::Avx2NodeTest>(ray, range, limit, on_leaf);
+    }
+    template <class OnLeaves>
+    [[gnu::target("avx2")]] void any_order_avx2(const Ray& ray, Interval range, OnLeaves& on_leaves) const {
+        any_order<detail::Avx2NodeTest>(ray, range, on_leaves);
+    }
+#endif
+
+    /// for_each_leaf's walk with node test Test (inlined into each caller, so that the
+    /// AVX2 caller compiles all of it for AVX2).
+    template <class Test, class Limit, class OnLeaf>
+    SYLVA_FORCEINLINE void nearest_first(const Ray& ray, Interval range, Limit& limit, OnLeaf& on_leaf) const {
         detail::WideRay r(ray);
         struct Entry {
             std::uint32_t child, count;
@@ -228,7 +312,7 @@ public:
             }
             const WideNode& n = nodes_[e.child];
             float tn[kWideWidth];
-            int mask = detail::enter_children(n, r, range.t0, std::min(range.t1, limit()), tn);
+            int mask = Test::enter(n, r, range.t0, std::min(range.t1, limit()), tn);
             // Push the entered children farthest first, so the nearest is popped next.
             int order[kWideWidth], k = 0;
             for (int c = 0; c < kWideWidth; ++c)
@@ -248,13 +332,9 @@ public:
         }
     }
 
-    /// Calls on_leaves(leaves, n) with batches of the leaves (first, count) the ray's [range]
-    /// enters, in no particular order (for queries that sort their hits anyway). The walk only
-    /// gathers leaves; testing them in batches keeps the walk's branches independent of what
-    /// the leaves hold, and lets the batch's loads and tests overlap.
-    template <class OnLeaves>
-    void for_each_leaf_any_order(const Ray& ray, Interval range, OnLeaves&& on_leaves) const {
-        if (nodes_.empty() || range.empty()) return;
+    /// for_each_leaf_any_order's walk with node test Test (see nearest_first).
+    template <class Test, class OnLeaves>
+    SYLVA_FORCEINLINE void any_order(const Ray& ray, Interval range, OnLeaves& on_leaves) const {
         detail::WideRay r(ray);
         std::uint32_t stack[kStack];
         std::uint32_t sp = 0, node = 0;
@@ -268,7 +348,7 @@ public:
         for (;;) {
             const WideNode& n = nodes_[node];
             float tn[kWideWidth];
-            int mask = detail::enter_children(n, r, range.t0, range.t1, tn);
+            int mask = Test::enter(n, r, range.t0, range.t1, tn);
             int leaves = mask & leaf_mask(n);
             int inner = mask & ~leaves;
             for (int m = inner; m != 0; m &= m - 1) prefetch_node(n.child[lowest_bit(m)]);
@@ -285,6 +365,7 @@ public:
         flush();
     }
 
+public:
     /// How much of the tree all_hits visits for one ray: wide nodes tested and leaves entered
     /// (for benchmarks and tests; the same walk as for_each_leaf_any_order).
     struct Visits {
