@@ -185,6 +185,35 @@ TEST_CASE("WideTree spheres decide grazing rays exactly as Sphere::intersect", "
     CHECK(grazing_hits < g.rays.size() * 9 / 10);
 }
 
+TEST_CASE("a WideTree ray that enters every node (more pending nodes than the walk's ring) finds every box",
+          "[bih][wide]") {
+    // 20000 overlapping boxes that all contain the x axis: the all-hits walk enters every wide
+    // node, so its FIFO ring of pending nodes fills and the overflow stack takes over.
+    std::mt19937 rng(77);
+    std::uniform_real_distribution<float> u(0.0f, 4.0f);
+    std::vector<BoxElement> elems;
+    for (int i = 0; i < 20000; ++i) {
+        vec3 c(u(rng), u(rng) - 2.0f, u(rng) - 2.0f);
+        vec3 h(0.5f + u(rng), 2.5f, 2.5f);  // |c.y|, |c.z| <= 2 < 2.5: the x axis passes through
+        elems.push_back(BoxElement{Aabb{c - h, c + h}});
+    }
+    std::span<const BoxElement> es(elems);
+    bih::Config leaf4;
+    leaf4.max_leaf_elements = 4;
+    leaf4.trim_leaves = false;
+    bih::WideTree<BoxElement> wide(bih::build(es, leaf4), es, bih::WideConfig{4});
+    for (vec3 o : {vec3(-9.0f, 0.0f, 0.0f), vec3(-9.0f, 0.25f, -0.5f), vec3(13.0f, 0.0f, 0.0f)}) {
+        Ray ray{o, vec3(o.x < 0.0f ? 1.0f : -1.0f, 0.0f, 0.0f)};
+        auto visits = wide.visits(ray);
+        CHECK(visits.nodes == wide.stats().nodes);  // every node entered
+        CHECK(visits.nodes > 1000u);
+        std::vector<bih::ElementHit> hits;
+        bih::all_hits(wide, ray, hits);
+        CHECK(hits.size() == elems.size());
+        CHECK(hits == bih::brute_force_hits(es, ray));
+    }
+}
+
 TEST_CASE("a WideTree of 5000 coincident spheres (a leaf at the depth cap) answers exactly", "[bih][wide]") {
     std::vector<Sphere> elems(5000, Sphere{vec3(0.5f), 0.1f, vec4(1.0f), 2.0f});
     std::span<const Sphere> es(elems);

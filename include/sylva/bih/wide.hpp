@@ -19,9 +19,10 @@
 //   each leaf starts a new packet, unused lanes have radius 0 (never hit) and id kNoChild.
 //   Other element types are copied in leaf order and tested one by one.
 //
-// all_hits walks the nodes in any order and only gathers the leaves it enters; each batch of
-// leaves is then tested in two passes (a branch-free float prefilter over every packet, then
-// the exact test, bit-identical to Sphere::intersect, for the candidates), and the hits are
+// all_hits walks the nodes in any order (breadth first through a small ring, so that a node's
+// prefetch has time to arrive before it is tested) and only gathers the leaves it enters; each
+// batch of leaves is then tested in two passes (a branch-free float prefilter over every packet,
+// then the exact test, bit-identical to Sphere::intersect, for the candidates), and the hits are
 // sorted at the end. first_hit walks nearest entry first and prunes what lies beyond its best.
 #ifndef SYLVA_BIH_WIDE_HPP
 #define SYLVA_BIH_WIDE_HPP
@@ -336,6 +337,14 @@ private:
     template <class Test, class OnLeaves>
     SYLVA_FORCEINLINE void any_order(const Ray& ray, Interval range, OnLeaves& on_leaves) const {
         detail::WideRay r(ray);
+        // Inner nodes to test go into a FIFO ring, so that each is tested several nodes after
+        // its prefetch went out; a LIFO stack would test next the child it has just prefetched
+        // and wait on memory (measured: the walk alone 20-40 % faster at 1e5-1e6 spheres). When
+        // the ring is full, children go on a stack that is popped first: the ring cannot drain
+        // while the stack holds nodes, so from then on the stack is a depth-first stack under
+        // at most kWideWidth roots, and kStack bounds it as before.
+        constexpr std::uint32_t kRing = 64;
+        std::uint32_t ring[kRing], head = 0, tail = 0;  // pending: ring[head, tail) mod kRing
         std::uint32_t stack[kStack];
         std::uint32_t sp = 0, node = 0;
         constexpr std::uint32_t kFound = 64;
@@ -352,15 +361,25 @@ private:
             int leaves = mask & leaf_mask(n);
             int inner = mask & ~leaves;
             for (int m = inner; m != 0; m &= m - 1) prefetch_node(n.child[lowest_bit(m)]);
-            for (int m = inner; m != 0; m &= m - 1) stack[sp++] = n.child[lowest_bit(m)];
+            for (int m = inner; m != 0; m &= m - 1) {
+                std::uint32_t c = n.child[lowest_bit(m)];
+                if (tail - head < kRing)
+                    ring[tail++ % kRing] = c;
+                else
+                    stack[sp++] = c;
+            }
             for (int m = leaves; m != 0; m &= m - 1) {
                 int c = lowest_bit(m);
                 detail::prefetch(&records_[n.child[c]]);
                 found[nf++] = {n.child[c], n.count[c]};
             }
             if (nf > kFound - kWideWidth) flush();
-            if (sp == 0) break;
-            node = stack[--sp];
+            if (sp != 0)
+                node = stack[--sp];
+            else if (head != tail)
+                node = ring[head++ % kRing];
+            else
+                break;
         }
         flush();
     }
