@@ -79,12 +79,13 @@ struct Builder {
     double total = 0.0;
 };
 
-/// Runs each builder opt.runs times, interleaved, until one of them has spent the build budget.
+/// Runs each builder opt.build_runs() times, interleaved, until one of them has spent the build
+/// budget.
 /// Odd runs go in reverse order, so that no builder always follows the same one: a build right
 /// after Embree's shares the cores with TBB's workers, which spin for a while after a commit
 /// (at 10^4 spheres that cost the next build about 0.5 ms of 1.2-1.8 ms).
 void build_race(const Context& c, std::vector<Builder>& builders) {
-    for (std::size_t r = 0; r < c.opt.runs; ++r) {
+    for (std::size_t r = 0; r < c.opt.build_runs(); ++r) {
         bool spent = false;
         for (std::size_t k = 0; k < builders.size(); ++k) {
             Builder& b = builders[r % 2 == 0 ? k : builders.size() - 1 - k];
