@@ -142,9 +142,9 @@ struct WideRay {
     }
 };
 
-/// Entry t of the kWideWidth child boxes and the mask of those the ray enters in [t0, t1].
-/// A NaN slab (a ray lying in a box plane: 0 * inf) constrains nothing: max/min keep the
-/// other operand, so the test errs towards entering.
+/// Entry t of the kWideWidth child boxes (into tn_out, unless it is null) and the mask of those
+/// the ray enters in [t0, t1]. A NaN slab (a ray lying in a box plane: 0 * inf) constrains
+/// nothing: max/min keep the other operand, so the test errs towards entering.
 SYLVA_FORCEINLINE int enter_children(const WideNode& n, const WideRay& r, float t0, float t1,
                                      float tn_out[kWideWidth]) {
 #ifdef SYLVA_BIH_QUERY_SSE
@@ -158,7 +158,7 @@ SYLVA_FORCEINLINE int enter_children(const WideNode& n, const WideRay& r, float 
             tn = _mm_max_ps(lo, tn);  // maxps returns the second operand when either is NaN
             tf = _mm_min_ps(hi, tf);
         }
-        _mm_storeu_ps(tn_out + g, tn);
+        if (tn_out) _mm_storeu_ps(tn_out + g, tn);
         mask |= _mm_movemask_ps(_mm_cmple_ps(tn, tf)) << g;
     }
     return mask;
@@ -172,7 +172,7 @@ SYLVA_FORCEINLINE int enter_children(const WideNode& n, const WideRay& r, float 
             tn = lo > tn ? lo : tn;  // NaN compares false: tn kept
             tf = hi < tf ? hi : tf;
         }
-        tn_out[c] = tn;
+        if (tn_out) tn_out[c] = tn;
         mask |= tn <= tf ? (1 << c) : 0;
     }
     return mask;
@@ -202,7 +202,7 @@ struct Avx2NodeTest {
             tn = _mm256_max_ps(lo, tn);
             tf = _mm256_min_ps(hi, tf);
         }
-        _mm256_storeu_ps(tn_out, tn);
+        if (tn_out) _mm256_storeu_ps(tn_out, tn);
         return _mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
     }
 };
@@ -356,8 +356,7 @@ private:
         };
         for (;;) {
             const WideNode& n = nodes_[node];
-            float tn[kWideWidth];
-            int mask = Test::enter(n, r, range.t0, range.t1, tn);
+            int mask = Test::enter(n, r, range.t0, range.t1, nullptr);  // entry t not needed
             int leaves = mask & leaf_mask(n);
             int inner = mask & ~leaves;
             for (int m = inner; m != 0; m &= m - 1) prefetch_node(n.child[lowest_bit(m)]);
