@@ -38,6 +38,11 @@
 #include <vector>
 
 #include "sylva/bih/query.hpp"
+#include "sylva/bih/tree.hpp"
+#include "sylva/core/concepts.hpp"
+#include "sylva/core/error.hpp"
+#include "sylva/core/executor.hpp"
+#include "sylva/elements/sphere.hpp"
 
 // The node test picks AVX2 (one 8-lane slab test instead of two SSE ones) at run time where the
 // CPU has it, as Embree picks its kernels by ISA; the walk is compiled twice, once for each.
@@ -47,11 +52,6 @@
 #include <immintrin.h>
 #define SYLVA_BIH_WIDE_AVX2 1
 #endif
-#include "sylva/bih/tree.hpp"
-#include "sylva/core/concepts.hpp"
-#include "sylva/core/error.hpp"
-#include "sylva/core/executor.hpp"
-#include "sylva/elements/sphere.hpp"
 
 namespace sylva::bih {
 
