@@ -8,7 +8,7 @@ packages=(
   build-essential cmake pkg-config   # compiler and build tools
   libglm-dev                         # math on the host (GLSL names and semantics)
   catch2                             # unit tests (Catch2 v2)
-  libopenimageio-dev                 # images written by sylva-render
+  libopenimageio-dev openimageio-tools  # images written by sylva-render (+ tools its CMake package checks)
   libvulkan-dev mesa-vulkan-drivers  # Vulkan loader + lavapipe, so GPU tests run without a GPU
   glslang-tools glslang-dev spirv-tools  # shaders -> SPIR-V at build time, validation
   libtbb-dev libembree-dev           # benchmark peers
