@@ -152,10 +152,12 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
-/// An 8-bit raw volume, normalised; std::nullopt (with the reader's message) when it cannot be read.
+/// An 8-bit raw volume normalised by 255, as Kinkelin's tables count (the type range, whatever
+/// the data's max); std::nullopt (with the reader's message) when it cannot be read.
 std::optional<volume::DensityGrid> load(const std::string& dir, const Case& c) {
     try {
-        return volume::normalize(volume::read_raw(dir + "/" + c.file, {c.dims, volume::ScalarType::U8, c.spacing}));
+        return volume::normalize(volume::read_raw(dir + "/" + c.file, {c.dims, volume::ScalarType::U8, c.spacing},
+                                                  volume::ValueRange::of_type()));
     } catch (const Error& e) {
         std::cerr << "sylva-tables: " << e.what() << "\n";
         return std::nullopt;

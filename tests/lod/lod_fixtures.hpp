@@ -95,7 +95,8 @@ inline std::optional<volume::DensityGrid> load_u8(const std::string& name, volum
         }
         FAIL("data file missing: " << path << " (set SYLVA_ALLOW_MISSING_DATA=1 to skip)");
     }
-    return volume::normalize(volume::read_raw(path, {dims, volume::ScalarType::U8, spacing}));
+    // Normalised by 255 as Kinkelin's tables are (the type range, whatever the data's max).
+    return volume::normalize(volume::read_raw(path, {dims, volume::ScalarType::U8, spacing}, volume::ValueRange::of_type()));
 }
 
 }  // namespace sylva::lodtest

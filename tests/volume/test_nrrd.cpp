@@ -47,7 +47,8 @@ const std::string u8_header = "NRRD0004\n# a comment\ntype: uchar\ndimension: 3\
 void check_ramp_u8(const Volume& v) {
     REQUIRE(v.type == ScalarType::U8);
     REQUIRE(v.dims == Dims(2, 3, 4));
-    CHECK(v.range_hi == 255.0f);
+    CHECK(v.range_lo == 0.0f);
+    CHECK(v.range_hi == 230.0f);  // the data's max: no min/max in the header
     for (std::size_t i = 0; i < 24; ++i) CHECK(v.value(i) == float(10 * i));
 }
 
@@ -98,7 +99,9 @@ TEST_CASE("NRRD uint16 in both byte orders", "[nrrd]") {
         write_file(dir / "u16.nrrd", h + ramp_u16(big));
         Volume v = read_nrrd(dir / "u16.nrrd");
         REQUIRE(v.type == ScalarType::U16);
-        CHECK(v.range_hi == 65535.0f);
+        CHECK(v.range_lo == 1.0f);
+        CHECK(v.range_hi == 23001.0f);
+        CHECK(read_nrrd(dir / "u16.nrrd", ValueRange::of_type()).range_hi == 65535.0f);
         for (std::size_t i = 0; i < 24; ++i) CHECK(v.value(i) == float(1000 * i + 1));
     }
 }

@@ -49,7 +49,7 @@ TEST_CASE("uint8, uint16 and float32 raw files read back exactly, x fastest", "[
     TempDir dir;
     Dims dims(3, 2, 4);
     std::size_t n = 24;
-    SECTION("uint8: full type range") {
+    SECTION("uint8: the data's range by default, the full type range on request") {
         std::vector<std::uint8_t> v(n);
         for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<std::uint8_t>(i * 10);
         write_file(dir / "a_3x2x4_uint8.raw", v);
@@ -57,13 +57,18 @@ TEST_CASE("uint8, uint16 and float32 raw files read back exactly, x fastest", "[
         CHECK(vol.type == ScalarType::U8);
         CHECK(vol.dims == dims);
         CHECK(vol.range_lo == 0.0f);
-        CHECK(vol.range_hi == 255.0f);
+        CHECK(vol.range_hi == 230.0f);
+        CHECK(vol.range_source == RangeSource::Data);
         auto view = vol.view<std::uint8_t>();
         CHECK(view.at(2, 1, 3) == v[2 + 3 * (1 + 2 * 3)]);
         CHECK(view.at(1, 0, 0) == 10);
-        CHECK(normalize(vol).at(2, 1, 3) == Approx(230.0 / 255.0));
+        CHECK(normalize(vol).at(2, 1, 3) == Approx(1.0));
+        Volume typed = read_raw(dir / "a_3x2x4_uint8.raw", parse_raw_name("a_3x2x4_uint8.raw"), ValueRange::of_type());
+        CHECK(typed.range_hi == 255.0f);
+        CHECK(typed.range_source == RangeSource::Type);
+        CHECK(normalize(typed).at(2, 1, 3) == Approx(230.0 / 255.0));
     }
-    SECTION("uint16: little-endian, full type range") {
+    SECTION("uint16: little-endian, the data's range or the full type range") {
         std::vector<std::uint8_t> le;
         for (std::size_t i = 0; i < n; ++i) {
             std::uint16_t x = static_cast<std::uint16_t>(1000 * i + 7);
@@ -72,7 +77,10 @@ TEST_CASE("uint8, uint16 and float32 raw files read back exactly, x fastest", "[
         }
         write_file(dir / "b_3x2x4_uint16.raw", le);
         Volume vol = read_raw(dir / "b_3x2x4_uint16.raw", RawInfo{dims, ScalarType::U16, vec3(1.0f, 2.0f, 0.5f)});
-        CHECK(vol.range_hi == 65535.0f);
+        CHECK(vol.range_lo == 7.0f);
+        CHECK(vol.range_hi == 23007.0f);
+        CHECK(read_raw(dir / "b_3x2x4_uint16.raw", RawInfo{dims, ScalarType::U16, vec3(1.0f)}, ValueRange::of_type())
+                  .range_hi == 65535.0f);
         CHECK(vol.spacing == vec3(1.0f, 2.0f, 0.5f));
         for (std::size_t i = 0; i < n; ++i) CHECK(vol.value(i) == float(1000 * i + 7));
     }

@@ -7,8 +7,9 @@
 //    with v = (x, y, z), so its centre is (v + 0.5) * spacing and the whole grid covers
 //    [0, dims * spacing]. Trilinear reconstruction interpolates between voxel centres and
 //    clamps to the edge voxels outside them.
-//  * Normalised density is in [0, 1]: value / 255 for uint8, value / 65535 for uint16, and
-//    (value - lo) / (hi - lo) over the volume's value range for float32 (see Volume::range).
+//  * Normalised density is in [0, 1]: clamp((value - lo) / (hi - lo), 0, 1) over the volume's
+//    value range [range_lo, range_hi]. The readers choose it (sylva/volume/value_range.hpp):
+//    by default the file's stated range or the data's min/max.
 #ifndef SYLVA_VOLUME_GRID_HPP
 #define SYLVA_VOLUME_GRID_HPP
 
@@ -18,8 +19,10 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sylva/core/aabb.hpp"
@@ -80,6 +83,15 @@ struct GridView {
     [[nodiscard]] Aabb world_box() const { return Aabb{vec3(0.0f), vec3(dims) * spacing}; }
 };
 
+/// Where the value range a volume is normalised with came from (sylva/volume/value_range.hpp).
+enum class RangeSource : std::uint8_t {
+    Type,      ///< the scalar type's full range (uint8 0..255, uint16 0..65535)
+    Data,      ///< the data's min and max
+    Stated,    ///< the file's own range (NRRD min:/max:)
+    Explicit,  ///< given by the caller
+    Constant,  ///< a constant volume's one value v widened to [min(v, 0), max(v, 0)] ([0, 1] for v = 0)
+};
+
 /// An owning volume of one scalar type, as read from a file or generated.
 struct Volume {
     ScalarType type = ScalarType::U8;
@@ -87,10 +99,14 @@ struct Volume {
     vec3 spacing{1.0f};
     /// Raw little-endian voxel bytes, voxel_count(dims) * scalar_bytes(type) of them.
     std::vector<std::byte> bytes;
-    /// Value range that maps to normalised density [0, 1]. Readers set it to the type's full
-    /// range for integers and to the data's min/max for float32.
+    /// Value range that maps to normalised density [0, 1], and where it came from. The readers
+    /// set it with volume::apply_value_range (by default the stated range, else the data's
+    /// min/max); a Volume built by hand starts with uint8's 0..255.
     float range_lo = 0.0f;
     float range_hi = 255.0f;
+    RangeSource range_source = RangeSource::Type;
+    /// The range the file states for its values (NRRD `min:` / `max:`), when it states one.
+    std::optional<std::pair<float, float>> stated_range{};
 
     [[nodiscard]] std::size_t voxels() const { return bytes.size() / scalar_bytes(type); }
 

@@ -13,7 +13,10 @@
 //  * spacing from `spacings` or from diagonal `space directions` (the absolute value of each
 //    diagonal entry: axis flips are ignored, the grid is always [0, dims * spacing]); any
 //    off-diagonal entry is an error, and so are spacings that disagree with the directions.
-//    No spacing given: (1, 1, 1). `space origin`, `space`, `kinds`, `centers`, `content`,
+//    No spacing given: (1, 1, 1).
+//  * `min` and `max`, when given, are the volume's stated value range: by default it maps to
+//    density [0, 1] instead of the data's own min/max (sylva/volume/value_range.hpp). `old
+//    min`/`old max` (a range before quantisation) are ignored. `space origin`, `space`, `kinds`, `centers`, `content`,
 //    key/value pairs (key:=value) and unknown fields are ignored.
 //  * encoding raw, or gzip/gz (through zlib when sylva was built with it, SYLVA_HAVE_ZLIB=1;
 //    otherwise an error says that gzip needs zlib). ascii/text/hex/bzip2 are errors.
@@ -41,11 +44,13 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "sylva/core/error.hpp"
 #include "sylva/volume/grid.hpp"
 #include "sylva/volume/read_raw.hpp"
+#include "sylva/volume/value_range.hpp"
 
 #if defined(SYLVA_HAVE_ZLIB) && SYLVA_HAVE_ZLIB
 #include <zlib.h>
@@ -359,6 +364,26 @@ inline Geometry geometry(const Header& h) {
     return g;
 }
 
+/// The value range the header states (`min:` and `max:`, NRRD's "minimum and maximum values in
+/// the array"); nullopt when it gives neither. One given alone leaves the other NaN, to be taken
+/// from the data. Each must be a finite number, and min < max when both are given.
+inline std::optional<std::pair<float, float>> stated_range(const Header& h) {
+    const Field* fmin = optional_field(h, "min");
+    const Field* fmax = optional_field(h, "max");
+    if (!fmin && !fmax) return std::nullopt;
+    auto value = [&](const Field* f, const char* key) {
+        double d = 0.0;
+        if (!f) return std::numeric_limits<float>::quiet_NaN();
+        if (!parse_double(trim(f->value), d) || !std::isfinite(d) || std::fabs(d) > std::numeric_limits<float>::max())
+            throw field_error(h, *f, key, "not a finite number");
+        return static_cast<float>(d);
+    };
+    std::pair<float, float> r{value(fmin, "min"), value(fmax, "max")};
+    if (fmin && fmax && !(r.first < r.second))
+        throw field_error(h, *fmax, "max", "must be above min (" + fmin->value.substr(0, 40) + ")");
+    return r;
+}
+
 /// True for gzip/gz, false for raw; an error for the other encodings.
 inline bool gzip_encoding(const Header& h) {
     const Field& f = required(h, "encoding");
@@ -606,8 +631,10 @@ inline Volume make_volume(std::vector<std::byte> bytes, FileType t, const Geomet
 /// what is supported is listed at the top of this header). Throws sylva::Error naming the file
 /// (and the header line) for every malformed or unsupported case: bad magic, missing or repeated
 /// fields, unsupported type/dimension/encoding, non-diagonal space directions, missing data
-/// file, truncated or oversized data, corrupt gzip streams, NaN or infinite float voxels.
-inline Volume read_nrrd(const std::filesystem::path& path) {
+/// file, truncated or oversized data, corrupt gzip streams, NaN or infinite float voxels, a
+/// `min`/`max` that is not a finite number or min >= max. `range` picks the value range
+/// (default Auto: the header's min/max where given, else the data's).
+inline Volume read_nrrd(const std::filesystem::path& path, const ValueRange& range = {}) {
     using namespace detail::nrrd;
     Header h = read_header(path);
     FileType type = file_type(h);
@@ -619,7 +646,8 @@ inline Volume read_nrrd(const std::filesystem::path& path) {
     std::vector<std::byte> bytes = gzip ? read_gzip_data(where, need) : read_raw_data(where, need);
     if (swap) detail::swap_bytes(bytes, type.bytes);
     Volume v = make_volume(std::move(bytes), type, g);
-    detail::set_value_range(v, h.source);
+    v.stated_range = stated_range(h);
+    apply_value_range(v, range, h.source);
     return v;
 }
 

@@ -15,26 +15,29 @@
 #include "sylva/volume/grid.hpp"
 #include "sylva/volume/nrrd.hpp"
 #include "sylva/volume/read_raw.hpp"
+#include "sylva/volume/value_range.hpp"
 
 namespace sylva::volume {
 
 /// Reads a volume file, choosing the reader by extension (.nrrd/.nhdr: NRRD; .raw: the
 /// NAME_XxYxZ_TYPE.raw convention). `spacing`, when given, replaces the spacing the file or its
-/// name implies (it must be finite and positive). Throws sylva::Error for any other extension
+/// name implies (it must be finite and positive); `range` picks the value range that maps to
+/// density [0, 1] (default Auto: the file's stated range, else the data's min/max). Throws sylva::Error for any other extension
 /// (listing the accepted ones) and for everything the readers reject.
-inline Volume read_volume(const std::filesystem::path& path, std::optional<vec3> spacing = {}) {
+inline Volume read_volume(const std::filesystem::path& path, std::optional<vec3> spacing = {},
+                          const ValueRange& range = {}) {
     std::string ext = path.extension().string();
     for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     if (spacing) detail::check_spacing(*spacing, "volume file " + path.string());
     if (ext == ".nrrd" || ext == ".nhdr") {
-        Volume v = read_nrrd(path);
+        Volume v = read_nrrd(path, range);
         if (spacing) v.spacing = *spacing;
         return v;
     }
     if (ext == ".raw") {
         RawInfo info = parse_raw_name(path.filename().string());
         if (spacing) info.spacing = *spacing;
-        return read_raw(path, info);
+        return read_raw(path, info, range);
     }
     throw Error(
         "volume file " + path.string() + ": unknown extension '" + ext +

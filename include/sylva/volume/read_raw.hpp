@@ -21,6 +21,7 @@
 
 #include "sylva/core/error.hpp"
 #include "sylva/volume/grid.hpp"
+#include "sylva/volume/value_range.hpp"
 
 namespace sylva::volume {
 
@@ -62,32 +63,6 @@ inline std::size_t checked_voxel_count(Dims dims, std::size_t bytes_per_voxel, c
     } catch (const Error& e) {
         throw Error(source + ": " + e.what());
     }
-}
-
-/// Sets range_lo/hi of a freshly read volume: the full type range for integers, the data's
-/// min/max for float32. Throws naming `source` and the voxel index when a float is NaN or inf.
-inline void set_value_range(Volume& v, const std::string& source) {
-    if (v.type == ScalarType::U8) {
-        v.range_lo = 0.0f;
-        v.range_hi = 255.0f;
-        return;
-    }
-    if (v.type == ScalarType::U16) {
-        v.range_lo = 0.0f;
-        v.range_hi = 65535.0f;
-        return;
-    }
-    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-    for (std::size_t i = 0, n = v.voxels(); i < n; ++i) {
-        float x = v.value(i);
-        if (!std::isfinite(x))
-            throw Error(source + ": float32 voxel " + std::to_string(i) + " is " +
-                        (std::isnan(x) ? "NaN" : "infinite"));
-        lo = std::min(lo, x);
-        hi = std::max(hi, x);
-    }
-    v.range_lo = lo;
-    v.range_hi = hi;
 }
 
 /// Reverses the byte order of every `width`-byte word in `bytes` (big <-> little endian).
@@ -138,12 +113,12 @@ inline RawInfo parse_raw_name(std::string_view filename) {
 }
 
 /// Reads a headerless little-endian raw volume, x fastest, with the dimensions, type and spacing
-/// of `info`. Integer volumes get the full type range (0..255, 0..65535) as their value range,
-/// float32 volumes the data's min/max. Throws sylva::Error naming the file when it is missing or
+/// of `info`. The value range is chosen by `range` (default: the data's min and max; see
+/// sylva/volume/value_range.hpp). Throws sylva::Error naming the file when it is missing or
 /// unreadable, when its size differs from dims * bytes per voxel (bigger or truncated: both byte
 /// counts are in the message), when a dimension is zero or their product overflows, when the
 /// spacing is not finite and positive, or when a float32 voxel is NaN or infinite (with its index).
-inline Volume read_raw(const std::filesystem::path& path, const RawInfo& info) {
+inline Volume read_raw(const std::filesystem::path& path, const RawInfo& info, const ValueRange& range = {}) {
     const std::string source = "raw volume " + path.string();
     if (info.type != ScalarType::U8 && info.type != ScalarType::U16 && info.type != ScalarType::F32)
         throw Error(source + ": unknown voxel type " + std::to_string(int(info.type)));
@@ -168,7 +143,7 @@ inline Volume read_raw(const std::filesystem::path& path, const RawInfo& info) {
     std::ifstream in(path, std::ios::binary);
     if (!in || !in.read(reinterpret_cast<char*>(v.bytes.data()), static_cast<std::streamsize>(v.bytes.size())))
         throw Error(source + ": cannot read " + std::to_string(expected) + " bytes");
-    detail::set_value_range(v, source);
+    apply_value_range(v, range, source);
     return v;
 }
 
