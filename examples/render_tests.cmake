@@ -7,7 +7,8 @@ set(_positive "elements;nodes;max_depth;bytes;rays_per_s")
 set(_data ${PROJECT_SOURCE_DIR}/../shared/data)
 
 function(sylva_render_test name)
-  cmake_parse_arguments(A "KEYS_ONLY" "RC;ERR;MAKE_FILE;MAKE_BYTES;NEED;ENV" "ARGS;FILES;JSON;EXTRA_KEYS" ${ARGN})
+  cmake_parse_arguments(A "KEYS_ONLY" "RC;ERR;MAKE_FILE;MAKE_BYTES;NEED;ENV;FIXTURE"
+                        "ARGS;FILES;JSON;EXTRA_KEYS;JSON_MIN;JSON_EQUAL" ${ARGN})
   list(JOIN A_ARGS "|" joined)
   set(defs -DEXE=$<TARGET_FILE:sylva-render> "-DARGS=${joined}")
   if(DEFINED A_RC)
@@ -25,6 +26,12 @@ function(sylva_render_test name)
     list(JOIN A_FILES "|" files)
     list(APPEND defs "-DFILES=${files}")
   endif()
+  foreach(v JSON_MIN JSON_EQUAL)
+    if(A_${v})
+      string(REPLACE ";" "|" joined_v "${A_${v}}")
+      list(APPEND defs "-D${v}=${joined_v}")
+    endif()
+  endforeach()
   if(A_JSON)
     string(REPLACE ";" "|" keys "${_keys};${A_EXTRA_KEYS}")
     string(REPLACE ";" "|" positive "${_positive}")
@@ -36,6 +43,9 @@ function(sylva_render_test name)
   add_test(NAME examples.sylva_render.${name} COMMAND ${CMAKE_COMMAND} ${defs} -P ${_check})
   set_tests_properties(examples.sylva_render.${name} PROPERTIES SKIP_RETURN_CODE 77 ENVIRONMENT "SYLVA_VULKAN_DEVICE=cpu"
                        LABELS "plugins")  # OpenImageIO loads format plugins
+  if(A_FIXTURE)
+    set_tests_properties(examples.sylva_render.${name} PROPERTIES FIXTURES_REQUIRED ${A_FIXTURE})
+  endif()
 endfunction()
 
 foreach(backend cpu vulkan)
@@ -97,8 +107,11 @@ sylva_render_test(volume_missing RC 1 ERR "nope_8x8x8_uint8\\.raw"
   ARGS --volume ${_out}/nope_8x8x8_uint8.raw -o ${_out}/x.png)
 sylva_render_test(volume_bad_name RC 1 ERR "NAME_XxYxZ_TYPE"
   MAKE_FILE ${_out}/volume.raw MAKE_BYTES 8 ARGS --volume ${_out}/volume.raw -o ${_out}/x.png)
-sylva_render_test(volume_empty RC 1 ERR "no voxel reaches the density threshold"  # "x" = 120/255 < 0.9
-  MAKE_FILE ${_out}/low_2x2x2_uint8.raw MAKE_BYTES 8 ARGS --volume ${_out}/low_2x2x2_uint8.raw --threshold 0.9 -o ${_out}/x.png)
+sylva_render_test(volume_empty ERR "nothing visible.*threshold +0.9 .*no voxel reaches it"  # constant 120: density 1
+  MAKE_FILE ${_out}/low_2x2x2_uint8.raw MAKE_BYTES 8                                  # (auto), so type range
+  ARGS --volume ${_out}/low_2x2x2_uint8.raw --range type --threshold 0.9 --size 96x72 -o ${_out}/empty.png
+       --stats-json ${_out}/empty.json
+  FILES ${_out}/empty.png JSON ${_out}/empty.json KEYS_ONLY JSON_EQUAL elements=0 visible_pixels=0)
 sylva_render_test(volume_index_none_particles RC 2 ERR "--index none renders volumes only"
   ARGS --index none -o ${_out}/x.png)
 sylva_render_test(volume_bad_procedural RC 1 ERR "unknown procedural volume"
@@ -158,3 +171,69 @@ sylva_render_test(volume_kd_boxes_without_kd RC 2 ERR "--boxes and --tf-sequence
   ARGS --mode dvr --boxes ${_out}/b.png -o ${_out}/x.png)
 sylva_render_test(volume_kd_bad_depth RC 2 ERR "--kd: 'medium' is not one of shallow\\|deep"
   ARGS --index kd-vidal --kd medium -o ${_out}/x.png)
+
+# Value ranges (issue 10): a 12-bit CT in uint16 and float32 volumes with negative and large values,
+# written by make_test_volumes, render a visible image by default with every index on both
+# backends (at least 5 % of the pixels with alpha >= 1/255), and the stats say which range was used.
+# NRRD min:/max: win over the data's range; --range type shows nothing and says so (exit 0).
+add_executable(make_test_volumes ${CMAKE_CURRENT_SOURCE_DIR}/sylva_render/make_test_volumes.cpp)
+target_link_libraries(make_test_volumes PRIVATE sylva_project_options)
+set(_rv ${_out}/range)
+add_test(NAME examples.sylva_render.range_volumes COMMAND make_test_volumes ${_rv})
+set_tests_properties(examples.sylva_render.range_volumes PROPERTIES FIXTURES_SETUP sylva_range_volumes)
+set(_rv_min_visible 346)  # 5 % of 96 x 72
+set(_rv_cases "ct12|ct12_48x48x40_uint16.raw|0|3926" "signed|signed_40x40x40_float32.raw|-1|1"
+              "large|large_40x40x40_float32.raw|0|1000000")
+foreach(case IN LISTS _rv_cases)
+  string(REPLACE "|" ";" case "${case}")
+  list(GET case 0 what)
+  list(GET case 1 file)
+  list(GET case 2 lo)
+  list(GET case 3 hi)
+  foreach(backend cpu vulkan)
+    if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+      continue()
+    endif()
+    foreach(index bih kd-vidal kd-binned none)
+      set(_n range_${what}_${index}_${backend})
+      set(_keys_only "")
+      if(index STREQUAL "none")
+        set(_keys_only KEYS_ONLY)
+      endif()
+      sylva_render_test(${_n} ${_keys_only} FIXTURE sylva_range_volumes
+        ARGS --volume ${_rv}/${file} --index ${index} --backend ${backend} --size 96x72 --quiet -o ${_rv}/${_n}.png
+             --stats-json ${_rv}/${_n}.json
+        FILES ${_rv}/${_n}.png JSON ${_rv}/${_n}.json
+        JSON_MIN visible_pixels=${_rv_min_visible}
+        JSON_EQUAL value_range.0=${lo} value_range.1=${hi} "value_range_source=data min/max")
+    endforeach()
+  endforeach()
+endforeach()
+sylva_render_test(range_ct12_nrrd_minmax FIXTURE sylva_range_volumes
+  ARGS --volume ${_rv}/ct12.nrrd --size 96x72 --quiet -o ${_rv}/ct12_nrrd.png --stats-json ${_rv}/ct12_nrrd.json
+  FILES ${_rv}/ct12_nrrd.png JSON ${_rv}/ct12_nrrd.json
+  JSON_MIN visible_pixels=${_rv_min_visible}
+  JSON_EQUAL value_range.0=0 value_range.1=4095 "value_range_source=file min/max")
+sylva_render_test(range_ct12_explicit FIXTURE sylva_range_volumes
+  ARGS --volume ${_rv}/ct12_48x48x40_uint16.raw --range 0,4095 --index kd-binned --size 96x72 --quiet
+       -o ${_rv}/ct12_explicit.png --stats-json ${_rv}/ct12_explicit.json
+  FILES ${_rv}/ct12_explicit.png JSON ${_rv}/ct12_explicit.json
+  JSON_MIN visible_pixels=${_rv_min_visible} JSON_EQUAL value_range.1=4095 value_range_source=explicit)
+foreach(index bih kd-binned none)
+  set(_n range_ct12_type_${index})
+  sylva_render_test(${_n} KEYS_ONLY FIXTURE sylva_range_volumes
+    ERR "nothing visible: all 96x72 pixels are fully transparent.*\\[0, 65535\\] \\(type range\\).*--range auto"
+    ARGS --volume ${_rv}/ct12_48x48x40_uint16.raw --range type --index ${index} --size 96x72 --quiet
+         -o ${_rv}/${_n}.png --stats-json ${_rv}/${_n}.json
+    FILES ${_rv}/${_n}.png JSON ${_rv}/${_n}.json JSON_EQUAL visible_pixels=0 value_range.1=65535)
+endforeach()
+sylva_render_test(range_iso_type FIXTURE sylva_range_volumes
+  ERR "nothing visible.*iso value +0.3 \\(raw value 19660.5\\).*an --iso value in"
+  ARGS --volume ${_rv}/ct12_48x48x40_uint16.raw --range type --mode iso --iso 0.3 --size 32x24 --quiet
+       -o ${_rv}/iso_type.png FILES ${_rv}/iso_type.png)
+sylva_render_test(range_bad RC 2 ERR "--range: value range '4095,0': LO must be below HI"
+  ARGS --volume ${_rv}/ct12.nrrd --range 4095,0 -o ${_out}/x.png)
+sylva_render_test(range_bad_word RC 2 ERR "--range: value range 'full' is not auto, type or LO,HI"
+  ARGS --volume ${_rv}/ct12.nrrd --range full -o ${_out}/x.png)
+sylva_render_test(range_procedural RC 2 ERR "--range applies to volume files"
+  ARGS --mode dvr --range 0,10 -o ${_out}/x.png)

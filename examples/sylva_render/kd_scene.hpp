@@ -243,6 +243,7 @@ inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, 
     replay(o, gw, p, builder, pool, dev, s);
     if (!o.quiet) s.print(std::cout);
     if (!o.stats_json.empty()) s.write_json(o.stats_json);
+    warn_if_nothing_visible(o, s, g, p, std::cerr);  // about the first rendering (the replay's are files)
     return s.errors ? 1 : 0;
 }
 

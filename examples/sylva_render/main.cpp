@@ -91,6 +91,10 @@ int run(const Options& o) {
     s.fill(tree, words.size() * 4 + records.size() * 4, f);
     if (!o.quiet) s.print(std::cout);
     if (!o.stats_json.empty()) s.write_json(o.stats_json);
+    if (s.visible_pixels == 0)
+        std::cerr << "sylva-render: nothing visible: all " << s.width << "x" << s.height
+                  << " pixels are fully transparent (the image is written all the same); try a larger --opacity or "
+                     "--radius-factor, or another --view\n";
     return s.errors ? 1 : 0;
 }
 

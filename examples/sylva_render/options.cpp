@@ -15,9 +15,9 @@ const char* usage() {
            "                    [--payload inline|range] [--nodes fixed16|float32] [--layout chunks|preorder]\n"
            "                    [--chunk-depth D] [--empty-children trim-both|infinite]\n"
            "volumes:            [--mode dvr|iso] [--dvr single|multi] [--tf FILE | --tf-preset ct|ramp]\n"
-           "                    [--threshold D] [--resample F] [--spacing X,Y,Z] [--lod-density F]\n"
-           "                    [--lod-stddev F] [--lod-depth N] [--iso V] [--iso-cull on|off] [--steps N]\n"
-           "                    [--shading] [--opacity A] [--alpha-stop A]\n"
+           "                    [--range auto|type|LO,HI] [--threshold D] [--resample F] [--spacing X,Y,Z]\n"
+           "                    [--lod-density F] [--lod-stddev F] [--lod-depth N] [--iso V]\n"
+           "                    [--iso-cull on|off] [--steps N] [--shading] [--opacity A] [--alpha-stop A]\n"
            "kd-trees (volumes): [--kd shallow|deep] [--kd-classify alpha|threshold] [--boxes FILE]\n"
            "                    [--tf-sequence TF1,TF2,...]\n"
            "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
@@ -26,6 +26,9 @@ const char* usage() {
            "kd-tree (Vidal et al.; Zellmann et al.): the same image, fewer samples.\n"
            "With no input it renders a procedural galaxy of --count particles (default 1,000,000);\n"
            "with --mode and no input, a procedural volume. Volume files: NAME_XxYxZ_TYPE.raw, .nrrd, .nhdr.\n"
+           "--range picks the raw values that map to density 0 and 1, which the threshold, the transfer\n"
+           "function, --iso and the LoD read: auto (default) = the file's min/max fields, else the data's\n"
+           "min/max; type = 0..255 / 0..65535; LO,HI as given.\n"
            "SYLVA_VULKAN_DEVICE=auto|cpu|gpu|INDEX|NAME picks the Vulkan device.\n";
 }
 
@@ -68,6 +71,13 @@ std::vector<std::string> parse_list(const std::string& opt, const std::string& v
     if (out.empty()) throw std::invalid_argument(opt + " needs at least one file");
     return out;
 }
+sylva::volume::ValueRange parse_range(const std::string& v) {
+    try {
+        return sylva::volume::ValueRange::parse(v);
+    } catch (const std::exception& e) {
+        throw std::invalid_argument(std::string("--range: ") + e.what());
+    }
+}
 }  // namespace
 
 Options parse(int argc, char** argv) {
@@ -93,6 +103,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--threshold") o.threshold = static_cast<float>(number(a, value(), 0, 1));
         else if (a == "--resample") o.resample = static_cast<float>(number(a, value(), 0.1, 8));
         else if (a == "--spacing") o.spacing = parse_vec3(a, value());
+        else if (a == "--range") o.range = parse_range(value());
         else if (a == "--lod-density") o.lod_density = static_cast<float>(number(a, value(), 0, 1));
         else if (a == "--lod-stddev") o.lod_stddev = static_cast<float>(number(a, value(), 0, 1));
         else if (a == "--lod-depth") o.lod_depth = static_cast<std::uint32_t>(number(a, value(), 0, 64));
@@ -128,6 +139,8 @@ Options parse(int argc, char** argv) {
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
     if (o.kd_index() && o.mode == "iso")
         throw std::invalid_argument("--index " + o.index + " renders --mode dvr only (the marcher with empty-space skipping)");
+    if (o.range.mode != sylva::volume::ValueRange::Mode::Auto && (!o.volume_input() || o.procedural_volume()))
+        throw std::invalid_argument("--range applies to volume files; the procedural volumes are densities in [0, 1] already");
     if (!o.kd_index() && (!o.boxes.empty() || !o.tf_sequence.empty()))
         throw std::invalid_argument("--boxes and --tf-sequence need a kd-tree: --index kd-vidal or kd-binned");
     return o;

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <sylva/volume/value_range.hpp>
+
 namespace sylva_render {
 
 struct Options {
@@ -21,6 +23,9 @@ struct Options {
     float threshold = 0.1f;          ///< --threshold D: voxels with normalised density >= D are elements
     float resample = 1.0f;           ///< --resample F: trilinear supersampling factor (Kinkelin 6.2)
     std::optional<std::vector<float>> spacing;  ///< --spacing X,Y,Z: voxel size override
+    /// --range auto|type|LO,HI: the raw values that map to density 0 and 1 (volume files; auto:
+    /// the file's min/max fields, else the data's min/max; sylva/volume/value_range.hpp)
+    sylva::volume::ValueRange range;
     float lod_density = 0.75f;       ///< --lod-density F: min element density of an LoD leaf (Table 3)
     float lod_stddev = 0.01f;        ///< --lod-stddev F: max std-dev of an LoD leaf's densities (Table 3)
     std::uint32_t lod_depth = 64;    ///< --lod-depth N: max LoD depth
@@ -53,6 +58,9 @@ struct Options {
 
     /// True for the kd-tree indices (--index kd-vidal|kd-binned).
     [[nodiscard]] bool kd_index() const { return index == "kd-vidal" || index == "kd-binned"; }
+
+    /// True when the volume is one of the procedural ones (no file).
+    [[nodiscard]] bool procedural_volume() const { return volume.empty() || volume.rfind("procedural", 0) == 0; }
 
     /// True when this run renders a volume (a file, or the procedural volume for --mode or a
     /// kd-tree index).

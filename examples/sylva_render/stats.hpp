@@ -22,10 +22,13 @@ struct Stats {
     double build_ms = 0, encode_ms = 0, render_ms = 0, rays_per_s = 0, single_child_percent = 0, steps_mean = 0;
     std::uint32_t steps_max = 0;
     std::uint32_t repeat = 1;  ///< frames rendered (--repeat); the figures are the fastest one's
+    std::size_t visible_pixels = 0;  ///< pixels with alpha >= 1/255 (what an 8-bit image shows)
     /// Volume runs: Kinkelin Table 3's rows for what was built (empty for particles).
     struct VolumeRows {
         bool present = false;
         std::string mode, grid;
+        float range_lo = 0.0f, range_hi = 1.0f;  ///< raw values mapped to density 0 and 1 (--range)
+        std::string range_source;                ///< where that range came from
         std::size_t voxels = 0, grid_bytes_16bit = 0;
         std::size_t full_nodes = 0, full_bytes = 0, full_bytes_paper = 0;
         double full_single_percent = 0, full_ms = 0;
@@ -81,6 +84,8 @@ struct Stats {
             steps_max = std::max(steps_max, s);
         }
         steps_mean = f.steps.empty() ? 0.0 : sum / static_cast<double>(f.steps.size());
+        visible_pixels = 0;
+        for (const sylva::vec4& c : f.rgba) visible_pixels += c.a >= 1.0f / 255.0f ? 1u : 0u;
     }
 
     void print(std::ostream& os) const {
@@ -104,7 +109,9 @@ struct Stats {
         const VolumeRows& v = volume;
         auto kb = [](std::size_t b) { return static_cast<double>(b) / 1024.0; };
         os << "grid             " << v.grid << " (" << v.voxels << " voxels, 16-bit size " << kb(v.grid_bytes_16bit)
-           << " KB), mode " << v.mode << "\n";
+           << " KB), mode " << v.mode << "\n"
+           << "value range      [" << v.range_lo << ", " << v.range_hi << "] (" << v.range_source
+           << ") maps to density [0, 1]\n";
         if (v.full_nodes == 0) return;
         os << "Table 3 (Kinkelin)\n"
            << "  BIH elements   " << elements << " (" << 100.0 * static_cast<double>(elements) / static_cast<double>(v.voxels)
@@ -158,10 +165,12 @@ struct Stats {
             << ", \"single_child_percent\": " << single_child_percent << ", \"bytes\": " << bytes
             << ", \"build_ms\": " << build_ms << ", \"encode_ms\": " << encode_ms << ", \"render_ms\": " << render_ms
             << ", \"rays_per_s\": " << rays_per_s << ", \"width\": " << width << ", \"height\": " << height
-            << ", \"repeat\": " << repeat << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max << ", \"errors\": " << errors;
+            << ", \"repeat\": " << repeat << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max
+            << ", \"visible_pixels\": " << visible_pixels << ", \"errors\": " << errors;
         if (volume.present) {
             const VolumeRows& v = volume;
-            out << ", \"mode\": " << quoted(v.mode) << ", \"voxels\": " << v.voxels
+            out << ", \"mode\": " << quoted(v.mode) << ", \"value_range\": [" << v.range_lo << ", " << v.range_hi
+                << "], \"value_range_source\": " << quoted(v.range_source) << ", \"voxels\": " << v.voxels
                 << ", \"grid_bytes_16bit\": " << v.grid_bytes_16bit << ", \"full_nodes\": " << v.full_nodes
                 << ", \"full_single_child_percent\": " << v.full_single_percent << ", \"full_max_depth\": " << v.full_depth
                 << ", \"full_bytes\": " << v.full_bytes << ", \"full_bytes_paper\": " << v.full_bytes_paper

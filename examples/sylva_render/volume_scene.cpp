@@ -2,9 +2,11 @@
 
 #include "kd_scene.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <iostream>
 #include <optional>
+#include <sstream>
 
 #include <sylva/bih/lod.hpp>
 #include <sylva/bih/stats.hpp>
@@ -15,6 +17,7 @@
 #include <sylva/volume/read.hpp>
 #include <sylva/volume/resample.hpp>
 #include <sylva/volume/transfer_function.hpp>
+#include <sylva/volume/value_range.hpp>
 #include <sylva/volume/voxels.hpp>
 #ifdef SYLVA_RENDER_VULKAN
 #include <sylva/vulkan/volume.hpp>
@@ -41,17 +44,27 @@ std::optional<volume::DensityGrid> procedural_volume(const std::string& name, st
     return std::nullopt;
 }
 
-volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, std::string& input) {
-    std::optional<volume::DensityGrid> g = procedural_volume(o.volume, input);
+/// The density grid of --volume: a procedural one, or a file normalised over --range (the range
+/// used goes to the stats), resampled by --resample.
+volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s) {
+    Stats::VolumeRows& v = s.volume;
+    std::optional<volume::DensityGrid> g = procedural_volume(o.volume, s.input);
+    v.range_lo = 0.0f;
+    v.range_hi = 1.0f;
+    v.range_source = "procedural densities";
     if (!g) {
-        input = o.volume;
+        s.input = o.volume;
         std::optional<vec3> spacing;
         if (o.spacing) spacing = vec3((*o.spacing)[0], (*o.spacing)[1], (*o.spacing)[2]);
-        g = volume::normalize(volume::read_volume(o.volume, spacing));
+        volume::Volume raw = volume::read_volume(o.volume, spacing, o.range);
+        v.range_lo = raw.range_lo;
+        v.range_hi = raw.range_hi;
+        v.range_source = volume::range_source_name(raw.range_source);
+        g = volume::normalize(raw);
     }
     if (o.resample != 1.0f) {
         *g = volume::resample_trilinear(*g, o.resample, pool);
-        input += ", resampled x" + std::to_string(o.resample);
+        s.input += ", resampled x" + std::to_string(o.resample);
     }
     return std::move(*g);
 }
@@ -91,8 +104,7 @@ struct BuiltLod {
 
 BuiltLod build_lod(const Options& o, const volume::DensityGrid& g, ThreadPool& pool, Stats& s) {
     std::vector<VoxelCuboid> cuboids = volume::voxel_cuboids(g, o.threshold, pool);
-    if (cuboids.empty())
-        throw Error("no voxel reaches the density threshold " + std::to_string(o.threshold) + ": nothing to build");
+    if (cuboids.empty()) return {};  // nothing to build: a blank image and warn_if_nothing_visible's message
     bih::Config cfg;
     ProgressBar bar("building BIH");
     if (!o.quiet) cfg.on_progress = [&bar](double f) { bar.update(f); };
@@ -127,6 +139,10 @@ BuiltLod build_lod(const Options& o, const volume::DensityGrid& g, ThreadPool& p
 
 Frame render(const Options& o, const volume::DensityGrid& g, const BuiltLod& lod, const VolumeRenderParams& p,
              ThreadPool& pool, std::string& device) {
+    if (p.mode != VolumeMode::DvrReference && lod.words.empty()) {  // no element: nothing to traverse
+        device = "host, nothing traversed (no element)";
+        return blank_frame(p.width, p.height);
+    }
     std::optional<GridWords> grid;
     if (p.mode == VolumeMode::DvrReference) grid = GridWords::from(g);
     VoxelBihView view{lod.words, lod.ranges, g.spacing, g.world_box()};
@@ -149,7 +165,54 @@ Frame render(const Options& o, const volume::DensityGrid& g, const BuiltLod& lod
 #endif
 }
 
+/// Density of the first transfer-function entry with a visible alpha (> 0), or 2 when none is.
+float first_visible_density(const std::vector<std::uint32_t>& tf) {
+    for (std::size_t i = 0; i < tf.size(); ++i)
+        if ((tf[i] >> 24) != 0u) return static_cast<float>(i) / static_cast<float>(tf.size() - 1);
+    return 2.0f;
+}
+
+/// "0.1 (raw value 6553.5)": a density with the raw value it stands for under the volume's range.
+std::string density_text(float d, const Stats::VolumeRows& v) {
+    std::ostringstream os;
+    os << d << " (raw value " << v.range_lo + d * (v.range_hi - v.range_lo) << ")";
+    return os.str();
+}
+
 }  // namespace
+
+Frame blank_frame(std::uint32_t width, std::uint32_t height) {
+    Frame f;
+    f.width = width;
+    f.height = height;
+    f.rgba.assign(std::size_t{width} * height, vec4(0.0f));
+    f.steps.assign(std::size_t{width} * height, 0u);
+    return f;
+}
+
+void warn_if_nothing_visible(const Options& o, const Stats& s, const volume::DensityGrid& g, const VolumeRenderParams& p,
+                             std::ostream& err) {
+    if (s.visible_pixels > 0) return;
+    const Stats::VolumeRows& v = s.volume;
+    auto [lo, hi] = std::minmax_element(g.values.begin(), g.values.end());
+    float dlo = g.values.empty() ? 0.0f : *lo, dhi = g.values.empty() ? 0.0f : *hi;
+    float tf_from = first_visible_density(p.tf);
+    bool threshold_matters = o.index == "bih" || (o.kd_index() && o.kd_classify == "threshold");
+    err << "sylva-render: nothing visible: all " << s.width << "x" << s.height
+        << " pixels are fully transparent (the image is written all the same)\n"
+        << "  value range    [" << v.range_lo << ", " << v.range_hi << "] (" << v.range_source
+        << ") maps to density [0, 1]; the volume's densities lie in [" << dlo << ", " << dhi << "]\n";
+    if (threshold_matters)
+        err << "  threshold      " << density_text(o.threshold, v)
+            << (s.elements == 0 ? ": no voxel reaches it, nothing was built" : "") << "\n";
+    if (o.mode == "iso") err << "  iso value      " << density_text(o.iso, v) << "\n";
+    else err << "  transfer fn    transparent below density " << density_text(std::min(tf_from, 1.0f), v) << "\n";
+    err << "  to see it      ";
+    if (v.range_source == "type range" || v.range_source == "explicit") err << "--range auto (the data's min/max), ";
+    if (threshold_matters) err << "a --threshold at or below " << dhi << ", ";
+    if (o.mode == "iso") err << "an --iso value in [" << dlo << ", " << dhi << "]\n";
+    else err << "a transfer function (--tf FILE) visible in [" << dlo << ", " << dhi << "]\n";
+}
 
 volume::TransferFunction read_tf_file(const std::string& path) {
     bool json = path.size() >= 5 && path.substr(path.size() - 5) == ".json";
@@ -162,7 +225,7 @@ int run_volume(const Options& o) {
     s.index = o.index;
     s.repeat = o.repeat;
     ThreadPool pool(o.threads);
-    volume::DensityGrid g = load_grid(o, pool, s.input);
+    volume::DensityGrid g = load_grid(o, pool, s);
     VolumeRenderParams p = render_params(o, g);
     if (o.kd_index()) return run_kd_volume(o, g, p, pool, s);
     BuiltLod lod;
@@ -180,6 +243,7 @@ int run_volume(const Options& o) {
     s.fill_frame(f);
     if (!o.quiet) s.print(std::cout);
     if (!o.stats_json.empty()) s.write_json(o.stats_json);
+    warn_if_nothing_visible(o, s, g, p, std::cerr);
     return s.errors ? 1 : 0;
 }
 

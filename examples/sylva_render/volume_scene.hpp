@@ -4,8 +4,13 @@
 #ifndef SYLVA_RENDER_VOLUME_SCENE_HPP
 #define SYLVA_RENDER_VOLUME_SCENE_HPP
 
+#include <cstdint>
+#include <ostream>
 #include <string>
 
+#include <sylva/render/particles.hpp>
+#include <sylva/render/volume.hpp>
+#include <sylva/volume/grid.hpp>
 #include <sylva/volume/transfer_function.hpp>
 
 #include "options.hpp"
@@ -15,6 +20,16 @@ namespace sylva_render {
 
 /// Runs one volume render as `o` says; returns the process exit status.
 int run_volume(const Options& o);
+
+/// A frame of `width` x `height` fully transparent pixels and no iterator steps: what a volume
+/// with nothing to traverse renders to.
+sylva::Frame blank_frame(std::uint32_t width, std::uint32_t height);
+
+/// When the rendering shows nothing (no pixel with alpha >= 1/255), says so on `err` with the
+/// value range, the volume's density span, the threshold or iso value, where the transfer
+/// function becomes visible, and what to change. Not an error: the caller still exits 0.
+void warn_if_nothing_visible(const Options& o, const Stats& s, const sylva::volume::DensityGrid& g,
+                             const sylva::VolumeRenderParams& p, std::ostream& err);
 
 /// Reads a transfer-function file (.json, else text control points; sylva/volume/transfer_function.hpp).
 sylva::volume::TransferFunction read_tf_file(const std::string& path);
