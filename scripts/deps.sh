@@ -2,18 +2,30 @@
 # Makes sure the Debian 12 packages sylva needs to build and test are installed.
 # Quiet when all are there. Otherwise: as root, installs the missing ones (fresh CI machines and
 # containers); as anyone else, prints the command to run and fails, rather than prompting for sudo.
+#   scripts/deps.sh          check and install
+#   scripts/deps.sh --list   print the package names, one a line (scripts/check-deps.sh reads them)
+# The list is complete for a minimal Debian 12 (debootstrap --variant=minbase): scripts/fresh-check.sh
+# proves it by running the README's two commands there. The test suite's deps.declared test checks
+# that every file the build used from the system belongs to one of these packages or what they
+# pull in, so a package that only happened to be on a machine is caught.
 set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config   # compiler and build tools
   libglm-dev                         # math on the host (GLSL names and semantics)
   catch2                             # unit tests (Catch2 v2)
-  libopenimageio-dev openimageio-tools  # images written by sylva-render (+ tools its CMake package checks)
+  libopenimageio-dev                 # images written by sylva-render
+  openimageio-tools                  # Debian 12's OpenImageIO CMake package checks that its tools exist
   libvulkan-dev mesa-vulkan-drivers  # Vulkan loader + lavapipe, so GPU tests run without a GPU
   glslang-tools glslang-dev spirv-tools  # shaders -> SPIR-V at build time, validation
   libtbb-dev libembree-dev           # benchmark peers
   zlib1g-dev                         # gzip-encoded NRRD volumes (optional)
 )
+
+if [[ ${1:-} == --list ]]; then
+  printf '%s\n' "${packages[@]}"
+  exit 0
+fi
 
 if ! command -v dpkg-query >/dev/null; then
   # Not Debian: we cannot check, so let CMake report what it cannot find.
