@@ -5,9 +5,9 @@
 // [lo, hi] is chosen here, by one of three modes:
 //  * Auto (the default): the volume's stated range when its file has one (NRRD `min:` and
 //    `max:`; one stated alone takes the other end from the data), else the data's own min
-//    and max. This is what VTK, ParaView and 3D Slicer map a
-//    transfer function over by default, and the only choice that shows a 12-bit CT scan stored
-//    in uint16 (values 0..4095 of 0..65535) with the default threshold and presets.
+//    and max. This is what VTK, ParaView and 3D Slicer map a transfer function over by
+//    default, and the only choice that shows a 12-bit CT scan stored in uint16 (values
+//    0..4095 of 0..65535) with the default threshold and presets.
 //  * Type: the scalar type's full range, 0..255 for uint8 and 0..65535 for uint16 (sylva's
 //    behaviour before value ranges existed). float32 has no such range: the data's min and max.
 //  * Explicit: [LO, HI] as given (finite, LO < HI). Values outside it clamp to 0 or 1.
@@ -60,11 +60,16 @@ struct ValueRange {
     /// Throws sylva::Error naming the text otherwise.
     static ValueRange parse(std::string_view text);
 
-    /// The text parse() reads back: "auto", "type" or "LO,HI".
+    /// The text parse() reads back to the same range: "auto", "type" or "LO,HI" (shortest
+    /// round-trip decimals).
     [[nodiscard]] std::string text() const {
         if (mode == Mode::Auto) return "auto";
         if (mode == Mode::Type) return "type";
-        return std::to_string(lo) + "," + std::to_string(hi);
+        char buf[64];
+        auto end = std::to_chars(buf, buf + 31, lo).ptr;
+        *end++ = ',';
+        end = std::to_chars(end, buf + sizeof buf, hi).ptr;
+        return std::string(buf, end);
     }
 };
 
