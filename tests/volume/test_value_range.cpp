@@ -148,7 +148,7 @@ TEST_CASE("a stated range wins over the data's in auto mode, one end alone takes
     CHECK_THROWS_WITH(choose_range(v, {}), Contains("stated value range"));
 }
 
-TEST_CASE("NRRD min/max fields are the stated range; bad ones are refused with their line", "[range][nrrd]") {
+TEST_CASE("NRRD min/max fields are the stated range, bad ones are refused with their line", "[range][nrrd]") {
     TempDir dir;
     std::vector<std::uint16_t> data = ct12(24);
     auto nrrd = [&](const std::string& extra) {
