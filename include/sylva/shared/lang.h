@@ -12,8 +12,9 @@
 //    The buffer is chosen by the parameter's NAME in GLSL, by its value in C++: a helper
 //    declared with SYLVA_BUF(words) always reads `words` on the GPU, whatever is passed. Only
 //    pass a buffer on to a helper whose parameter has the same name (the parity tests catch it).
-//  * Bit-exact host/GPU parity: use sylva_safe_rcp, canonicalise signed zero with
-//    `SYLVA_PRECISE` and `+ 0.0f`, compile host code with -ffp-contract=off, no fma.
+//  * Bit-exact host/GPU parity: use sylva_safe_rcp, canonicalise signed zero with sylva_canon
+//    (integer bit operations: lavapipe may fold `x + 0.0f`), compile host code with
+//    -ffp-contract=off, no fma.
 #ifndef SYLVA_SHARED_LANG_H
 #define SYLVA_SHARED_LANG_H
 
@@ -81,10 +82,12 @@ SYLVA_FN float sylva_safe_rcp(float x) {
     return 1.0f / x;
 }
 
-/// Canonicalises -0 to +0 so both targets report identical bits.
+/// Canonicalises -0 to +0 so both targets report identical bits. Written with integer bit
+/// operations: `x + 0.0f`, even `precise`, was folded to x by lavapipe in some shaders (the
+/// implicit kd-tree's parity test saw -0 on the device, +0 on the host).
 SYLVA_FN float sylva_canon(float x) {
-    SYLVA_PRECISE float r = x + 0.0f;
-    return r;
+    uint b = floatBitsToUint(x);
+    return uintBitsToFloat((b == 0x80000000u) ? 0u : b);
 }
 
 SYLVA_END_NAMESPACE
