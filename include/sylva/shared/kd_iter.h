@@ -35,6 +35,7 @@
 #define SYLVA_SHARED_KD_ITER_H
 
 #include "sylva/shared/kd_layout.h"
+#include "sylva/shared/ray_box.h"
 
 #ifndef SYLVA_KD_STACK_SIZE
 #define SYLVA_KD_STACK_SIZE 64
@@ -80,39 +81,6 @@ struct SylvaKdIter {
 SylvaKdStack sylva_kd_stack_private;
 #define SYLVA_KD_STACK(it) sylva_kd_stack_private
 #endif
-
-SYLVA_FN float sylva_kd_pick(vec3 v, uint axis) { return (axis == 0u) ? v.x : ((axis == 1u) ? v.y : v.z); }
-SYLVA_FN uint sylva_kd_pick_u(uvec3 v, uint axis) { return (axis == 0u) ? v.x : ((axis == 1u) ? v.y : v.z); }
-
-/// True when x is +-inf or NaN (bit tests, identical on every target).
-SYLVA_FN bool sylva_kd_not_finite(float x) { return (floatBitsToUint(x) & 0x7FFFFFFFu) >= 0x7F800000u; }
-/// True when x is NaN.
-SYLVA_FN bool sylva_kd_nan(float x) { return (floatBitsToUint(x) & 0x7FFFFFFFu) > 0x7F800000u; }
-
-/// Ray interval inside the closed voxel-space box [lo, hi] (float corners), intersected with
-/// [t0, t1]; empty (x > y) when the ray misses it. `par` marks axes the ray is parallel to.
-SYLVA_FN vec2 sylva_kd_box_interval_f(vec3 org, vec3 rcp, uvec3 par, vec3 lo, vec3 hi, float t0, float t1) {
-    float a = t0;
-    float b = t1;
-    for (uint k = 0u; k < 3u; k++) {
-        float l = sylva_kd_pick(lo, k);
-        float h = sylva_kd_pick(hi, k);
-        float o = sylva_kd_pick(org, k);
-        if (sylva_kd_pick_u(par, k) != 0u) {
-            if (o < l || o > h) {
-                a = sylva_inf();
-                b = -sylva_inf();
-            }
-        } else {
-            float r = sylva_kd_pick(rcp, k);
-            float ta = sylva_canon((l - o) * r);
-            float tb = sylva_canon((h - o) * r);
-            a = sylva_max(a, sylva_min(ta, tb));
-            b = sylva_min(b, sylva_max(ta, tb));
-        }
-    }
-    return vec2(a, b);
-}
 
 /// sylva_kd_box_interval_f for a box with integer corners (the encoded node boxes).
 SYLVA_FN vec2 sylva_kd_box_interval(vec3 org, vec3 rcp, uvec3 par, uvec3 lo, uvec3 hi, float t0, float t1) {
