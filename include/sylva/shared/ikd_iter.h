@@ -1,0 +1,277 @@
+// sylva/shared/ikd_iter.h -- front-to-back traversal of the implicit min/max kd-tree
+// (sylva/shared/ikd_layout.h; Wald et al., sections 3.2 and 4.1) as a resumable iterator whose
+// fixed-size state the caller owns. It yields the candidate cells of up to four isovalues: the
+// cells the ray crosses whose corner densities span one of them, front to back, with the ray's
+// interval [t0, t1] inside each. Nodes whose [min, max] holds none of the isovalues are culled
+// with their whole subtree. No recursion, no heap, no callbacks: the same text runs on the host
+// and in a shader.
+//
+//   SylvaIkdIter it;
+//   sylva_ikd_init(it, words, word_count, grid_words, origin, direction, t_min, t_max, isos, iso_count);
+//   uvec3 cell; float t0; float t1;
+//   while (sylva_ikd_next(it, words, grid, cell, t0, t1)) {
+//       ... it.corners_lo / it.corners_hi are the cell's eight corner densities ...
+//   }
+//
+// Order and intervals are those of sylva/shared/kd_iter.h: children are visited near side first
+// (by the sign of the direction along the split axis), boxes are closed, a ray lying in a split
+// plane reports the cells on both sides, and t is the world-space ray parameter (the ray is
+// mapped into cell space, which leaves t unchanged up to rounding). The stack holds at most one
+// far child per level, so SYLVA_IKD_STACK_SIZE >= L suffices; trees deeper than the stack, and
+// headers that fail sylva_ikd_read_header, end with status ERROR at init. Node words can hold any
+// bits: they only decide culling, so a corrupted node word can drop or add candidate cells but
+// never makes the iterator read outside the buffers or loop.
+//
+// Corner order (what sylva/shared/iso_cell.h reads): corners_lo = densities at (x, y, z) offsets
+// (0,0,0), (1,0,0), (0,1,0), (1,1,0); corners_hi = the same at z + 1.
+#ifndef SYLVA_SHARED_IKD_ITER_H
+#define SYLVA_SHARED_IKD_ITER_H
+
+#include "sylva/shared/grid_sample.h"
+#include "sylva/shared/ikd_layout.h"
+#include "sylva/shared/ray_box.h"
+
+#ifndef SYLVA_IKD_STACK_SIZE
+#define SYLVA_IKD_STACK_SIZE 48
+#endif
+
+#ifndef SYLVA_ITER_RUNNING
+#define SYLVA_ITER_RUNNING 0u
+#define SYLVA_ITER_DONE 1u
+#define SYLVA_ITER_ERROR 2u
+#endif
+#define SYLVA_IKD_NO_NODE 0xFFFFFFFFu
+
+SYLVA_BEGIN_NAMESPACE
+
+/// Subtrees still to visit: packed node (x0 | y0 << 16, z0 | level << 16) and ray interval.
+struct SylvaIkdStack {
+    uint st_xy[SYLVA_IKD_STACK_SIZE];
+    uint st_zl[SYLVA_IKD_STACK_SIZE];
+    float st_in[SYLVA_IKD_STACK_SIZE];
+    float st_out[SYLVA_IKD_STACK_SIZE];
+};
+
+struct SylvaIkdIter {
+    SylvaIkdHeader hdr;
+    vec3 org;        ///< ray origin in cell space
+    vec3 rcp;        ///< reciprocal of the cell-space direction (+-inf where parallel)
+    uvec3 parallel;  ///< 1 where the ray is parallel to an axis
+    vec4 isos;       ///< the isovalues (normalised densities); the first iso_count count
+    uint iso_count;
+    float t_limit;  ///< subtrees entered after this are pruned (sylva_ikd_clip)
+    uvec3 node;     ///< first cell of the node to visit next
+    uint level;     ///< its level; SYLVA_IKD_NO_NODE: pop the stack
+    float t_in;
+    float t_out;
+    vec4 corners_lo;  ///< corner densities of the last cell returned (z = 0 face)
+    vec4 corners_hi;  ///< ... and of its z = 1 face
+    uint sp;
+    uint steps;  ///< nodes and cells visited so far (Wald's traversal steps)
+    uint status;
+#ifdef __cplusplus
+    SylvaIkdStack stack;
+#endif
+};
+
+#ifdef __cplusplus
+#define SYLVA_IKD_STACK(it) (it).stack
+#else
+SylvaIkdStack sylva_ikd_stack_private;
+#define SYLVA_IKD_STACK(it) sylva_ikd_stack_private
+#endif
+
+/// True when one of the first `count` isovalues lies in [lo, hi] (NaN isovalues never do).
+SYLVA_FN bool sylva_ikd_holds(vec4 isos, uint count, float lo, float hi) {
+    bool found = false;
+    for (uint k = 0u; k < 4u; k++) {
+        float v = (k == 0u) ? isos.x : ((k == 1u) ? isos.y : ((k == 2u) ? isos.z : isos.w));
+        if (k < count && v >= lo && v <= hi) found = true;
+    }
+    return found;
+}
+
+/// Ray interval (within [t0, t1]) in the real part of the box of the node of width 2^w cells
+/// starting at cell o: [o, min(o + 2^w, C)] for C = `cells`.
+SYLVA_FN vec2 sylva_ikd_box_interval(vec3 org, vec3 rcp, uvec3 par, uvec3 cells, uvec3 o, uvec3 w, float t0, float t1) {
+    uvec3 hi = uvec3(min(o.x + (1u << w.x), cells.x), min(o.y + (1u << w.y), cells.y), min(o.z + (1u << w.z), cells.z));
+    return sylva_kd_box_interval_f(org, rcp, par, vec3(float(o.x), float(o.y), float(o.z)),
+                                   vec3(float(hi.x), float(hi.y), float(hi.z)), t0, t1);
+}
+
+/// Starts a traversal of origin + t * direction over [t_min, t_max] (world space) for the first
+/// `iso_count` (1 .. 4) of `isos`. `word_count` and `grid_words` are the sizes of the two buffers.
+SYLVA_FN void sylva_ikd_init(SYLVA_OUT(SylvaIkdIter) it, SYLVA_BUF(words), uint word_count, uint grid_words,
+                             vec3 origin, vec3 direction, float t_min, float t_max, vec4 isos, uint iso_count) {
+    it.hdr = sylva_ikd_read_header(SYLVA_PASS_BUF(words), word_count, grid_words);
+    it.isos = isos;
+    it.iso_count = (iso_count < 4u) ? iso_count : 4u;
+    it.sp = 0u;
+    it.steps = 0u;
+    it.level = SYLVA_IKD_NO_NODE;
+    it.node = uvec3(0u, 0u, 0u);
+    it.t_limit = t_max;
+    it.t_in = 0.0f;
+    it.t_out = 0.0f;
+    it.corners_lo = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+    it.corners_hi = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+    it.org = vec3(0.0f, 0.0f, 0.0f);
+    it.rcp = vec3(0.0f, 0.0f, 0.0f);
+    it.parallel = uvec3(0u, 0u, 0u);
+    it.status = SYLVA_ITER_RUNNING;
+    if (it.hdr.valid == 0u || it.hdr.levels > uint(SYLVA_IKD_STACK_SIZE)) {
+        it.status = SYLVA_ITER_ERROR;
+        return;
+    }
+    vec3 s = it.hdr.inv_spacing;  // multiplications: divisions may differ between targets
+    it.org = vec3((origin.x - it.hdr.origin.x) * s.x, (origin.y - it.hdr.origin.y) * s.y,
+                  (origin.z - it.hdr.origin.z) * s.z);
+    vec3 d = vec3(direction.x * s.x, direction.y * s.y, direction.z * s.z);
+    it.rcp = vec3(sylva_safe_rcp(d.x), sylva_safe_rcp(d.y), sylva_safe_rcp(d.z));
+    it.parallel = uvec3(sylva_kd_not_finite(it.rcp.x) ? 1u : 0u, sylva_kd_not_finite(it.rcp.y) ? 1u : 0u,
+                        sylva_kd_not_finite(it.rcp.z) ? 1u : 0u);
+    bool nan_ray = sylva_kd_nan(it.org.x) || sylva_kd_nan(it.org.y) || sylva_kd_nan(it.org.z) || sylva_kd_nan(d.x) ||
+                   sylva_kd_nan(d.y) || sylva_kd_nan(d.z) || sylva_kd_nan(t_min) || sylva_kd_nan(t_max);
+    if (nan_ray || it.iso_count == 0u) {
+        it.status = SYLVA_ITER_DONE;
+        return;
+    }
+    vec2 t = sylva_ikd_box_interval(it.org, it.rcp, it.parallel, it.hdr.cells, uvec3(0u, 0u, 0u), it.hdr.lg, t_min, t_max);
+    if (t.x <= t.y) {
+        it.level = 0u;
+        it.t_in = t.x;
+        it.t_out = t.y;
+    }
+}
+
+/// Prunes everything the ray would enter after t (first hits, early termination).
+SYLVA_FN void sylva_ikd_clip(SYLVA_INOUT(SylvaIkdIter) it, float t) { it.t_limit = sylva_min(it.t_limit, t); }
+
+SYLVA_FN void sylva_ikd_push(SYLVA_INOUT(SylvaIkdIter) it, uvec3 o, uint level, vec2 t) {
+    if (it.sp >= uint(SYLVA_IKD_STACK_SIZE)) {  // unreachable: one entry per level at most
+        it.status = SYLVA_ITER_ERROR;
+        return;
+    }
+    SYLVA_IKD_STACK(it).st_xy[it.sp] = o.x | (o.y << 16u);
+    SYLVA_IKD_STACK(it).st_zl[it.sp] = o.z | (level << 16u);
+    SYLVA_IKD_STACK(it).st_in[it.sp] = t.x;
+    SYLVA_IKD_STACK(it).st_out[it.sp] = t.y;
+    it.sp = it.sp + 1u;
+}
+
+/// Pops the next subtree that still starts before t_limit; false when none is left.
+SYLVA_FN bool sylva_ikd_pop(SYLVA_INOUT(SylvaIkdIter) it) {
+    while (it.sp > 0u) {
+        it.sp = it.sp - 1u;
+        if (SYLVA_IKD_STACK(it).st_in[it.sp] <= it.t_limit) {
+            uint xy = SYLVA_IKD_STACK(it).st_xy[it.sp];
+            uint zl = SYLVA_IKD_STACK(it).st_zl[it.sp];
+            it.node = uvec3(xy & 0xFFFFu, xy >> 16u, zl & 0xFFFFu);
+            it.level = zl >> 16u;
+            it.t_in = SYLVA_IKD_STACK(it).st_in[it.sp];
+            it.t_out = sylva_min(SYLVA_IKD_STACK(it).st_out[it.sp], it.t_limit);
+            return true;
+        }
+    }
+    return false;
+}
+
+/// Splits the current node (table entry `entry`) along its axis: continues with the near child
+/// the ray hits and pushes the far one when both are hit. A child starting at or beyond the
+/// real cells is virtual and skipped.
+SYLVA_FN void sylva_ikd_descend(SYLVA_INOUT(SylvaIkdIter) it, uint entry) {
+    uint axis = entry & 3u;
+    uvec3 w = sylva_ikd_level_widths(entry);
+    uvec3 cw = uvec3((axis == 0u) ? w.x - 1u : w.x, (axis == 1u) ? w.y - 1u : w.y, (axis == 2u) ? w.z - 1u : w.z);
+    uint half_w = 1u << sylva_kd_pick_u(cw, axis);
+    uvec3 lo = it.node;
+    uvec3 up = uvec3((axis == 0u) ? lo.x + half_w : lo.x, (axis == 1u) ? lo.y + half_w : lo.y,
+                     (axis == 2u) ? lo.z + half_w : lo.z);
+    uint child_level = it.level + 1u;
+    vec2 tl = sylva_ikd_box_interval(it.org, it.rcp, it.parallel, it.hdr.cells, lo, cw, it.t_in, it.t_out);
+    vec2 tu = sylva_ikd_box_interval(it.org, it.rcp, it.parallel, it.hdr.cells, up, cw, it.t_in, it.t_out);
+    bool hit_l = tl.x <= tl.y;
+    bool hit_u = sylva_kd_pick_u(up, axis) < sylva_kd_pick_u(it.hdr.cells, axis) && tu.x <= tu.y;
+    bool lower_first = (floatBitsToUint(sylva_kd_pick(it.rcp, axis)) & 0x80000000u) == 0u;
+    if (hit_l && hit_u) {
+        if (lower_first) {
+            sylva_ikd_push(it, up, child_level, tu);
+        } else {
+            sylva_ikd_push(it, lo, child_level, tl);
+        }
+    }
+    it.level = child_level;
+    if (hit_l && (lower_first || !hit_u)) {
+        it.node = lo;
+        it.t_in = tl.x;
+        it.t_out = tl.y;
+    } else if (hit_u) {
+        it.node = up;
+        it.t_in = tu.x;
+        it.t_out = tu.y;
+    } else {
+        it.level = SYLVA_IKD_NO_NODE;
+    }
+}
+
+/// Loads the eight corner densities of cell c into it.corners_lo / it.corners_hi.
+SYLVA_FN void sylva_ikd_load_corners(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(grid), uvec3 c) {
+    uvec3 g = uvec3(it.hdr.cells.x + 1u, it.hdr.cells.y + 1u, it.hdr.cells.z + 1u);
+    it.corners_lo = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z),
+                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z),
+                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z),
+                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z));
+    it.corners_hi = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z + 1u),
+                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z + 1u),
+                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z + 1u),
+                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z + 1u));
+}
+
+/// True when the current cell's corners span one of the isovalues (loads them first).
+SYLVA_FN bool sylva_ikd_cell_candidate(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(grid)) {
+    sylva_ikd_load_corners(it, SYLVA_PASS_BUF(grid), it.node);
+    vec4 a = it.corners_lo;
+    vec4 b = it.corners_hi;
+    float lo = sylva_min(sylva_min(sylva_min(a.x, a.y), sylva_min(a.z, a.w)), sylva_min(sylva_min(b.x, b.y), sylva_min(b.z, b.w)));
+    float hi = sylva_max(sylva_max(sylva_max(a.x, a.y), sylva_max(a.z, a.w)), sylva_max(sylva_max(b.x, b.y), sylva_max(b.z, b.w)));
+    return sylva_ikd_holds(it.isos, it.iso_count, lo, hi);
+}
+
+/// Advances to the next candidate cell. Returns false when the traversal is over (status DONE)
+/// or the header was refused at init (status ERROR).
+SYLVA_FN bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYLVA_BUF(grid), SYLVA_OUT(uvec3) cell,
+                             SYLVA_OUT(float) t0, SYLVA_OUT(float) t1) {
+    cell = uvec3(0u, 0u, 0u);
+    t0 = 0.0f;
+    t1 = 0.0f;
+    while (it.status == SYLVA_ITER_RUNNING) {
+        if (it.level == SYLVA_IKD_NO_NODE && !sylva_ikd_pop(it)) {
+            it.status = SYLVA_ITER_DONE;
+            break;
+        }
+        it.steps = it.steps + 1u;
+        if (it.level >= it.hdr.levels) {  // a cell: its range from the corners, on the fly
+            it.level = SYLVA_IKD_NO_NODE;
+            if (sylva_ikd_cell_candidate(it, SYLVA_PASS_BUF(grid))) {
+                cell = it.node;
+                t0 = it.t_in;
+                t1 = it.t_out;
+                return true;
+            }
+            continue;
+        }
+        uint entry = sylva_ikd_level_entry(SYLVA_PASS_BUF(words), it.level);
+        uint index = sylva_ikd_node_index(SYLVA_PASS_BUF(words), it.hdr.cells, it.level, entry, it.node);
+        vec2 range = sylva_ikd_node_range(SYLVA_LOAD(words, it.hdr.nodes_at + index));
+        if (!sylva_ikd_holds(it.isos, it.iso_count, range.x, range.y)) {
+            it.level = SYLVA_IKD_NO_NODE;  // culled with its subtree (section 4.1)
+            continue;
+        }
+        sylva_ikd_descend(it, entry);
+    }
+    return false;
+}
+
+SYLVA_END_NAMESPACE
+
+#endif  // SYLVA_SHARED_IKD_ITER_H
