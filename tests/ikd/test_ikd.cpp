@@ -16,6 +16,7 @@
 #include <sylva/ikd/encode.hpp>
 #include <sylva/ikd/validate.hpp>
 #include <sylva/render/volume.hpp>
+#include <sylva/shared/cell_dda.h>
 #include <sylva/shared/ikd_iter.h>
 
 using namespace sylva;
@@ -83,6 +84,26 @@ std::vector<Hit> iterate(const Encoded& e, vec3 o, vec3 d, vec4 isos, std::uint3
     while (shared::sylva_ikd_next(it, w, g, cell, t0, t1)) out.push_back({cell, t0, t1});
     if (status) *status = it.status;
     return out;
+}
+
+/// The DDA walker's candidate cells of one ray, in its order.
+std::vector<Hit> walk(const Encoded& e, vec3 o, vec3 d, vec4 isos, std::uint32_t n, float tmax) {
+    shared::Words w{e.words.data(), e.words.size()}, g{e.gw.words.data(), e.gw.words.size()};
+    shared::SylvaDdaIter it;
+    shared::sylva_dda_init(it, w, static_cast<std::uint32_t>(e.words.size()), static_cast<std::uint32_t>(e.gw.words.size()),
+                           o, d, 0.0f, tmax, isos, n);
+    std::vector<Hit> out;
+    glm::u32vec3 cell;
+    float t0, t1;
+    while (shared::sylva_dda_next(it, g, cell, t0, t1)) out.push_back({cell, t0, t1});
+    REQUIRE(it.status == SYLVA_ITER_DONE);
+    return out;
+}
+
+/// `hits` without the cells a ray only touches (intervals of length 0).
+std::vector<Hit> crossed(std::vector<Hit> hits) {
+    hits.erase(std::remove_if(hits.begin(), hits.end(), [](const Hit& h) { return !(h.t0 < h.t1); }), hits.end());
+    return hits;
 }
 
 /// Every cell the ray crosses (closed boxes, same slab arithmetic as the iterator) whose
@@ -274,4 +295,32 @@ TEST_CASE("ikd bad input: too small, NaN or out-of-range densities, corrupted en
         }
         if (!valid && i < 20 + 2 * (e.words[5] & 255u)) CHECK(it.status == SYLVA_ITER_ERROR);  // header refused
     }
+}
+
+TEST_CASE("cell DDA: the candidate cells of brute force in order, with the tree's intervals", "[ikd][dda]") {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> iso(0.15f, 0.75f);
+    std::size_t compared = 0;
+    for (volume::Dims d : {volume::Dims(2, 2, 2), volume::Dims(3, 5, 4), volume::Dims(17, 9, 33), volume::Dims(20, 20, 12)}) {
+        Encoded e(blobs(d, d.y + 77 * d.z, vec3(0.5f, 1.0f, 2.0f)));
+        vec3 box = vec3(d) * e.grid.spacing;
+        for (int r = 0; r < 3000; ++r) {
+            auto [o, dir] = random_ray(rng, box);
+            std::uint32_t n = 1 + rng() % 4;
+            vec4 isos(iso(rng), iso(rng), iso(rng), iso(rng));
+            float tmax = r % 5 == 0 ? 0.7f * glm::length(box) : 1e30f;
+            std::vector<Hit> got = walk(e, o, dir, isos, n, tmax);
+            for (std::size_t i = 1; i < got.size(); ++i) REQUIRE(got[i].t0 >= got[i - 1].t0);
+            std::vector<Hit> want = crossed(brute_cells(e, o, dir, isos, n, tmax));
+            std::vector<Hit> tree = crossed(iterate(e, o, dir, isos, n, tmax));
+            got = crossed(got);
+            REQUIRE(got.size() == want.size());
+            std::vector<Hit> sorted = got;
+            std::sort(sorted.begin(), sorted.end());
+            CHECK(sorted == want);
+            CHECK(got == tree);  // the same cells as the tree, in the same order, same intervals
+            compared += got.size();
+        }
+    }
+    CHECK(compared > 20000);
 }

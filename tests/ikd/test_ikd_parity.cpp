@@ -10,7 +10,7 @@
 #include <sylva/ikd/build.hpp>
 #include <sylva/ikd/encode.hpp>
 #include <sylva/render/volume.hpp>
-#include <sylva/shared/ikd_iter.h>
+#include <sylva/shared/cell_dda.h>
 #include <sylva/spirv/test_ikd_cells.h>
 #include <sylva/volume/procedural.hpp>
 #include <sylva/vulkan/runner.hpp>
@@ -23,7 +23,7 @@ constexpr std::uint32_t kMaxCells = 64;
 constexpr std::size_t kStride = 3 + 5 * kMaxCells;
 
 struct Push {
-    std::uint32_t ray_count, max_cells, iso_count, pad;
+    std::uint32_t ray_count, max_cells, iso_count, walker;  ///< walker: 0 the tree, 1 the cell DDA
     float isos[4];
 };
 
@@ -44,26 +44,32 @@ std::vector<std::uint32_t> host_records(const std::vector<std::uint32_t>& words,
     std::vector<std::uint32_t> out(rays.size() * kStride, 0u);
     shared::Words w{words.data(), words.size()}, gw{g.words.data(), g.words.size()};
     for (std::size_t r = 0; r < rays.size(); ++r) {
-        shared::SylvaIkdIter it;
-        shared::sylva_ikd_init(it, w, std::uint32_t(words.size()), std::uint32_t(g.words.size()), rays[r].o, rays[r].d,
-                               rays[r].t0, rays[r].t1, vec4(p.isos[0], p.isos[1], p.isos[2], p.isos[3]), p.iso_count);
+        shared::SylvaIkdIter it{};
+        shared::SylvaDdaIter dda{};
+        vec4 isos(p.isos[0], p.isos[1], p.isos[2], p.isos[3]);
+        std::uint32_t nw = std::uint32_t(words.size()), ng = std::uint32_t(g.words.size());
+        if (p.walker == 0)
+            shared::sylva_ikd_init(it, w, nw, ng, rays[r].o, rays[r].d, rays[r].t0, rays[r].t1, isos, p.iso_count);
+        else
+            shared::sylva_dda_init(dda, w, nw, ng, rays[r].o, rays[r].d, rays[r].t0, rays[r].t1, isos, p.iso_count);
         std::uint32_t n = 0, *o = &out[r * kStride];
         glm::u32vec3 c;
         float t0, t1;
-        while (shared::sylva_ikd_next(it, w, gw, c, t0, t1)) {
+        auto next = [&] { return p.walker == 0 ? shared::sylva_ikd_next(it, w, gw, c, t0, t1) : shared::sylva_dda_next(dda, gw, c, t0, t1); };
+        while (next()) {
             if (n < kMaxCells) {
                 std::uint32_t* e = o + 3 + 5 * n;
                 e[0] = c.x | (c.y << 16);
                 e[1] = c.z;
                 e[2] = bits(t0);
                 e[3] = bits(t1);
-                e[4] = bits(it.corners_lo.x);
+                e[4] = bits(p.walker == 0 ? it.corners_lo.x : dda.corners_lo.x);
             }
             ++n;
         }
         o[0] = n;
-        o[1] = it.status;
-        o[2] = it.steps;
+        o[1] = p.walker == 0 ? it.status : dda.status;
+        o[2] = p.walker == 0 ? it.steps : dda.steps;
     }
     return out;
 }
@@ -108,7 +114,7 @@ std::vector<ParityRay> rays_for(vec3 box, std::uint32_t count, std::uint32_t see
 
 }  // namespace
 
-TEST_CASE("parity: ikd candidate cells are identical on the host and on Vulkan", "[parity]") {
+TEST_CASE("parity: ikd and cell DDA candidate cells are identical on the host and on Vulkan", "[parity]") {
     vk::Context ctx = vk::Context::create();
     struct Case {
         volume::DensityGrid grid;
@@ -126,25 +132,28 @@ TEST_CASE("parity: ikd candidate cells are identical on the host and on Vulkan",
         GridWords g = GridWords::from(c.grid);
         std::vector<ParityRay> rays = rays_for(vec3(c.grid.dims) * c.grid.spacing, 4000, c.grid.dims.x);
         c.push.ray_count = static_cast<std::uint32_t>(rays.size());
-        std::vector<std::uint32_t> host = host_records(words, g, rays, c.push);
-        std::vector<std::uint32_t> dev = device_records(ctx, words, g, rays, c.push);
-        REQUIRE(host.size() == dev.size());
-        std::size_t mismatches = 0;
-        for (std::size_t i = 0; i < host.size(); ++i) {
-            if (host[i] != dev[i] && mismatches < 8) {
-                float hf, df;
-                std::memcpy(&hf, &host[i], 4);
-                std::memcpy(&df, &dev[i], 4);
-                UNSCOPED_INFO("ray " << i / kStride << " word " << i % kStride << ": host " << host[i] << " (" << hf
-                                     << ") device " << dev[i] << " (" << df << ")");
+        for (std::uint32_t walker : {0u, 1u}) {
+            c.push.walker = walker;
+            std::vector<std::uint32_t> host = host_records(words, g, rays, c.push);
+            std::vector<std::uint32_t> dev = device_records(ctx, words, g, rays, c.push);
+            REQUIRE(host.size() == dev.size());
+            std::size_t mismatches = 0;
+            for (std::size_t i = 0; i < host.size(); ++i) {
+                if (host[i] != dev[i] && mismatches < 8) {
+                    float hf, df;
+                    std::memcpy(&hf, &host[i], 4);
+                    std::memcpy(&df, &dev[i], 4);
+                    UNSCOPED_INFO("ray " << i / kStride << " word " << i % kStride << ": host " << host[i] << " (" << hf
+                                         << ") device " << dev[i] << " (" << df << ")");
+                }
+                mismatches += host[i] != dev[i] ? 1u : 0u;
             }
-            mismatches += host[i] != dev[i] ? 1u : 0u;
-        }
-        CHECK(mismatches == 0);
-        for (std::size_t r = 0; r < rays.size(); ++r) {
-            CHECK(host[r * kStride + 1] == SYLVA_ITER_DONE);
-            cells_seen += host[r * kStride];
+            CHECK(mismatches == 0);
+            for (std::size_t r = 0; r < rays.size(); ++r) {
+                CHECK(host[r * kStride + 1] == SYLVA_ITER_DONE);
+                cells_seen += host[r * kStride];
+            }
         }
     }
-    CHECK(cells_seen > 10000);
+    CHECK(cells_seen > 20000);
 }

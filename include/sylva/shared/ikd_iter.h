@@ -214,27 +214,25 @@ SYLVA_FN void sylva_ikd_descend(SYLVA_INOUT(SylvaIkdIter) it, uint entry) {
     }
 }
 
-/// Loads the eight corner densities of cell c into it.corners_lo / it.corners_hi.
-SYLVA_FN void sylva_ikd_load_corners(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(grid), uvec3 c) {
-    uvec3 g = uvec3(it.hdr.cells.x + 1u, it.hdr.cells.y + 1u, it.hdr.cells.z + 1u);
-    it.corners_lo = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z),
-                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z),
-                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z),
-                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z));
-    it.corners_hi = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z + 1u),
-                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z + 1u),
-                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z + 1u),
-                         sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z + 1u));
+/// The eight corner densities of cell c of a grid of `cells` cells: lo = the z = c.z face
+/// ((0,0), (1,0), (0,1), (1,1) in x, y), hi = the z = c.z + 1 face in the same order.
+SYLVA_FN void sylva_ikd_corners(SYLVA_BUF(grid), uvec3 cells, uvec3 c, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
+    uvec3 g = uvec3(cells.x + 1u, cells.y + 1u, cells.z + 1u);
+    lo = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z),
+              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z),
+              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z),
+              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z));
+    hi = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z + 1u),
+              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z + 1u),
+              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z + 1u),
+              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z + 1u));
 }
 
-/// True when the current cell's corners span one of the isovalues (loads them first).
-SYLVA_FN bool sylva_ikd_cell_candidate(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(grid)) {
-    sylva_ikd_load_corners(it, SYLVA_PASS_BUF(grid), it.node);
-    vec4 a = it.corners_lo;
-    vec4 b = it.corners_hi;
+/// True when the corners' [min, max] holds one of the first `count` isovalues.
+SYLVA_FN bool sylva_ikd_corners_hold(vec4 a, vec4 b, vec4 isos, uint count) {
     float lo = sylva_min(sylva_min(sylva_min(a.x, a.y), sylva_min(a.z, a.w)), sylva_min(sylva_min(b.x, b.y), sylva_min(b.z, b.w)));
     float hi = sylva_max(sylva_max(sylva_max(a.x, a.y), sylva_max(a.z, a.w)), sylva_max(sylva_max(b.x, b.y), sylva_max(b.z, b.w)));
-    return sylva_ikd_holds(it.isos, it.iso_count, lo, hi);
+    return sylva_ikd_holds(isos, count, lo, hi);
 }
 
 /// Advances to the next candidate cell. Returns false when the traversal is over (status DONE)
@@ -252,7 +250,8 @@ SYLVA_FN bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYL
         it.steps = it.steps + 1u;
         if (it.level >= it.hdr.levels) {  // a cell: its range from the corners, on the fly
             it.level = SYLVA_IKD_NO_NODE;
-            if (sylva_ikd_cell_candidate(it, SYLVA_PASS_BUF(grid))) {
+            sylva_ikd_corners(SYLVA_PASS_BUF(grid), it.hdr.cells, it.node, it.corners_lo, it.corners_hi);
+            if (sylva_ikd_corners_hold(it.corners_lo, it.corners_hi, it.isos, it.iso_count)) {
                 cell = it.node;
                 t0 = it.t_in;
                 t1 = it.t_out;
