@@ -71,15 +71,10 @@ SYLVA_FN void sylva_dda_init(SYLVA_OUT(SylvaDdaIter) it, SYLVA_BUF(words), uint 
         it.status = SYLVA_ITER_ERROR;
         return;
     }
-    vec3 s = it.hdr.inv_spacing;
-    it.org = vec3((origin.x - it.hdr.origin.x) * s.x, (origin.y - it.hdr.origin.y) * s.y,
-                  (origin.z - it.hdr.origin.z) * s.z);
-    vec3 d = vec3(direction.x * s.x, direction.y * s.y, direction.z * s.z);
-    it.rcp = vec3(sylva_safe_rcp(d.x), sylva_safe_rcp(d.y), sylva_safe_rcp(d.z));
-    it.parallel = uvec3(sylva_kd_not_finite(it.rcp.x) ? 1u : 0u, sylva_kd_not_finite(it.rcp.y) ? 1u : 0u,
-                        sylva_kd_not_finite(it.rcp.z) ? 1u : 0u);
-    bool nan_ray = sylva_kd_nan(it.org.x) || sylva_kd_nan(it.org.y) || sylva_kd_nan(it.org.z) || sylva_kd_nan(d.x) ||
-                   sylva_kd_nan(d.y) || sylva_kd_nan(d.z) || sylva_kd_nan(t_min) || sylva_kd_nan(t_max);
+    bool nan_ray = sylva_ray_to_grid(origin, direction, it.hdr.origin, it.hdr.inv_spacing, t_min, t_max, it.org, it.rcp,
+                                     it.parallel);
+    vec3 d = vec3(direction.x * it.hdr.inv_spacing.x, direction.y * it.hdr.inv_spacing.y,
+                  direction.z * it.hdr.inv_spacing.z);
     uvec3 c = it.hdr.cells;
     vec2 t = sylva_kd_box_interval_f(it.org, it.rcp, it.parallel, vec3(0.0f, 0.0f, 0.0f),
                                      vec3(float(c.x), float(c.y), float(c.z)), t_min, t_max);

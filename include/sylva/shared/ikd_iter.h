@@ -123,15 +123,9 @@ SYLVA_FN void sylva_ikd_init(SYLVA_OUT(SylvaIkdIter) it, SYLVA_BUF(words), uint 
         it.status = SYLVA_ITER_ERROR;
         return;
     }
-    vec3 s = it.hdr.inv_spacing;  // multiplications: divisions may differ between targets
-    it.org = vec3((origin.x - it.hdr.origin.x) * s.x, (origin.y - it.hdr.origin.y) * s.y,
-                  (origin.z - it.hdr.origin.z) * s.z);
-    vec3 d = vec3(direction.x * s.x, direction.y * s.y, direction.z * s.z);
-    it.rcp = vec3(sylva_safe_rcp(d.x), sylva_safe_rcp(d.y), sylva_safe_rcp(d.z));
-    it.parallel = uvec3(sylva_kd_not_finite(it.rcp.x) ? 1u : 0u, sylva_kd_not_finite(it.rcp.y) ? 1u : 0u,
-                        sylva_kd_not_finite(it.rcp.z) ? 1u : 0u);
-    bool nan_ray = sylva_kd_nan(it.org.x) || sylva_kd_nan(it.org.y) || sylva_kd_nan(it.org.z) || sylva_kd_nan(d.x) ||
-                   sylva_kd_nan(d.y) || sylva_kd_nan(d.z) || sylva_kd_nan(t_min) || sylva_kd_nan(t_max);
+    // Multiplications by the header's 1 / spacing: divisions may differ between targets.
+    bool nan_ray = sylva_ray_to_grid(origin, direction, it.hdr.origin, it.hdr.inv_spacing, t_min, t_max, it.org, it.rcp,
+                                     it.parallel);
     if (nan_ray || it.iso_count == 0u) {
         it.status = SYLVA_ITER_DONE;
         return;

@@ -47,6 +47,22 @@ SYLVA_FN vec2 sylva_kd_box_interval_f(vec3 org, vec3 rcp, uvec3 par, vec3 lo, ve
     return vec2(a, b);
 }
 
+/// Maps the world ray origin + t * direction into a grid's space, where world point p is
+/// (p - grid_origin) * inv_spacing (t is unchanged): the mapped origin, the safe reciprocal of
+/// the mapped direction and the axes the ray is parallel to. Returns true when the origin, the
+/// direction or the range [t_min, t_max] holds a NaN (such a ray visits nothing).
+SYLVA_FN bool sylva_ray_to_grid(vec3 origin, vec3 direction, vec3 grid_origin, vec3 inv_spacing, float t_min, float t_max,
+                                SYLVA_OUT(vec3) org, SYLVA_OUT(vec3) rcp, SYLVA_OUT(uvec3) par) {
+    vec3 s = inv_spacing;
+    org = vec3((origin.x - grid_origin.x) * s.x, (origin.y - grid_origin.y) * s.y, (origin.z - grid_origin.z) * s.z);
+    vec3 d = vec3(direction.x * s.x, direction.y * s.y, direction.z * s.z);
+    rcp = vec3(sylva_safe_rcp(d.x), sylva_safe_rcp(d.y), sylva_safe_rcp(d.z));
+    par = uvec3(sylva_kd_not_finite(rcp.x) ? 1u : 0u, sylva_kd_not_finite(rcp.y) ? 1u : 0u,
+                sylva_kd_not_finite(rcp.z) ? 1u : 0u);
+    return sylva_kd_nan(org.x) || sylva_kd_nan(org.y) || sylva_kd_nan(org.z) || sylva_kd_nan(d.x) || sylva_kd_nan(d.y) ||
+           sylva_kd_nan(d.z) || sylva_kd_nan(t_min) || sylva_kd_nan(t_max);
+}
+
 SYLVA_END_NAMESPACE
 
 #endif  // SYLVA_SHARED_RAY_BOX_H
