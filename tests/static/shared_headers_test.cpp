@@ -14,3 +14,9 @@
 #include <sylva/shared/kd_iter.h>
 #include <sylva/shared/kd_dvr.h>
 #include <sylva/shared/kd_local_boxes.h>
+#include <sylva/shared/ray_box.h>
+#include <sylva/shared/ikd_layout.h>
+#include <sylva/shared/ikd_iter.h>
+#include <sylva/shared/cell_dda.h>
+#include <sylva/shared/iso_cell.h>
+#include <sylva/shared/iso_render.h>

@@ -1,0 +1,135 @@
+// sylva/render/iso.hpp -- exact isosurface rendering on the host (sylva/shared/iso_render.h):
+// the implicit kd-tree (Wald et al.) or the reference cell DDA finds the candidate cells, the
+// exact cubic root in each gives the hit; several isovalues, each with a colour and opacity,
+// are composited front to back.
+//
+//   ikd::Tree t = ikd::build(grid, pool);
+//   std::vector<std::uint32_t> words = ikd::encode(t);
+//   IsoRenderParams p;  p.camera = ...;  p.isos = {{0.5f, vec4(0.9f, 0.8f, 0.7f, 1.0f)}};
+//   IsoCounters n;
+//   Frame f = render_iso_cpu(words, GridWords::from(grid), p, pool, &n);
+#ifndef SYLVA_RENDER_ISO_HPP
+#define SYLVA_RENDER_ISO_HPP
+
+#include <atomic>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sylva/core/error.hpp"
+#include "sylva/core/executor.hpp"
+#include "sylva/render/camera.hpp"
+#include "sylva/render/particles.hpp"
+#include "sylva/render/volume.hpp"
+#include "sylva/shared/iso_render.h"
+#include "sylva/volume/transfer_function.hpp"
+
+namespace sylva {
+
+/// Which walker finds the candidate cells.
+enum class IsoWalker : std::uint32_t {
+    Tree = SYLVA_ISO_WALK_TREE,  ///< the implicit min/max kd-tree (culls cells that cannot hold an isovalue)
+    Dda = SYLVA_ISO_WALK_DDA,    ///< every cell along the ray (Amanatides-Woo): the reference
+};
+
+/// One isosurface: its normalised density and its colour (alpha = opacity; 1 = opaque).
+struct IsoSurface {
+    float value = 0.5f;
+    vec4 rgba{0.9f, 0.85f, 0.75f, 1.0f};
+};
+
+/// Everything an isosurface image depends on besides the data.
+struct IsoRenderParams {
+    CameraFrame camera{};
+    std::uint32_t width = 256;
+    std::uint32_t height = 256;
+    std::vector<IsoSurface> isos{IsoSurface{}};  ///< 1 .. 4 surfaces
+    IsoWalker walker = IsoWalker::Tree;
+    float alpha_stop = 0.99f;  ///< a ray ends once its opacity reaches this
+    float ambient = 0.25f;
+    float diffuse = 0.75f;
+};
+
+/// Totals over a frame (Wald's Table I and II counts): traversal steps, candidate cells
+/// intersected, surface hits.
+struct IsoCounters {
+    std::uint64_t steps = 0, cells = 0, hits = 0, errors = 0;
+};
+
+/// The shared parameter block of `p` for a tree of `tree_words` and a grid of `grid_words`
+/// words (layout: sylva/shared/iso_render.h). Throws sylva::Error for 0 or more than 4
+/// surfaces, a value or colour that is not finite, an empty image.
+inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size_t tree_words, std::size_t grid_words) {
+    if (p.isos.empty() || p.isos.size() > 4)
+        throw Error("render: " + std::to_string(p.isos.size()) + " isovalues; 1 to 4 can be rendered at once");
+    if (p.width == 0 || p.height == 0) throw Error("render: empty image");
+    std::vector<std::uint32_t> w(SYLVA_ISO_PARAM_WORDS, 0u);
+    std::array<float, 12> cam = p.camera.floats();
+    for (int i = 0; i < 12; ++i) w[i] = std::bit_cast<std::uint32_t>(cam[i]);
+    w[12] = p.width;
+    w[13] = p.height;
+    w[14] = static_cast<std::uint32_t>(p.isos.size());
+    w[15] = static_cast<std::uint32_t>(p.walker);
+    for (std::size_t k = 0; k < p.isos.size(); ++k) {
+        const IsoSurface& s = p.isos[k];
+        if (!std::isfinite(s.value) || !all_finite(s.rgba))
+            throw Error("render: isovalue " + std::to_string(k) + " or its colour is not finite");
+        w[16 + k] = std::bit_cast<std::uint32_t>(s.value);
+        w[20 + k] = volume::TransferFunction::pack_rgba8(glm::clamp(s.rgba, vec4(0.0f), vec4(1.0f)));
+    }
+    w[24] = std::bit_cast<std::uint32_t>(p.alpha_stop);
+    w[25] = std::bit_cast<std::uint32_t>(p.ambient);
+    w[26] = std::bit_cast<std::uint32_t>(p.diffuse);
+    if (tree_words > 0xFFFFFFFFu || grid_words > 0xFFFFFFFFu) throw Error("render: buffers over 2^32 words");
+    w[27] = static_cast<std::uint32_t>(tree_words);
+    w[28] = static_cast<std::uint32_t>(grid_words);
+    return w;
+}
+
+/// Renders the isosurfaces of an encoded implicit kd-tree (ikd::encode) over `grid` (the
+/// GridWords of the grid it was built from) on the host. Frame::steps holds each pixel's
+/// traversal steps (0xFFFFFFFF where the encoding was refused); `counters`, when given, gets
+/// the totals. Throws sylva::Error for bad parameters.
+template <Executor X>
+Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p, X& exec,
+                     IsoCounters* counters = nullptr) {
+    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size());
+    shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
+    shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
+    Frame f;
+    f.width = p.width;
+    f.height = p.height;
+    f.rgba.assign(std::size_t{p.width} * p.height, vec4(0.0f));
+    f.steps.assign(f.rgba.size(), 0u);
+    std::atomic<std::uint64_t> cells{0}, hits{0}, steps{0}, errors{0};
+    auto start = std::chrono::steady_clock::now();
+    exec.parallel_for(0, p.height, 1, [&](std::size_t y0, std::size_t y1) {
+        std::uint64_t c = 0, h = 0, s = 0, e = 0;
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::uint32_t x = 0; x < p.width; ++x) {
+                shared::SylvaIsoRay r = shared::sylva_iso_pixel(tw, gw, sp, x, static_cast<std::uint32_t>(y));
+                std::size_t i = y * p.width + x;
+                f.rgba[i] = r.rgba;
+                f.steps[i] = r.status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : r.steps;
+                c += r.cells;
+                h += r.hits;
+                s += r.steps;
+                e += r.status == SYLVA_ITER_ERROR ? 1u : 0u;
+            }
+        cells += c;
+        hits += h;
+        steps += s;
+        errors += e;
+    });
+    f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (counters) *counters = IsoCounters{steps.load(), cells.load(), hits.load(), errors.load()};
+    return f;
+}
+
+}  // namespace sylva
+
+#endif  // SYLVA_RENDER_ISO_HPP
