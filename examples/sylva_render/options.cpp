@@ -8,7 +8,7 @@ namespace sylva_render {
 
 const char* usage() {
     return "usage: sylva-render [--particles FILE | --volume FILE|procedural[:ml|nbody]]\n"
-           "                    [--index bih|kd-vidal|kd-binned|none]\n"
+           "                    [--index bih|kd-vidal|kd-binned|implicit-kd|dda|none]\n"
            "                    [--backend cpu|vulkan] [--size WxH] -o OUT.png|OUT.exr [--stats-json FILE]\n"
            "                    [--heatmap FILE] [--view X,Y,Z] [--threads T] [--quiet]\n"
            "particles:          [--count N] [--radius-factor F] [--opacity A] [--alpha-stop A]\n"
@@ -16,7 +16,7 @@ const char* usage() {
            "                    [--chunk-depth D] [--empty-children trim-both|infinite]\n"
            "volumes:            [--mode dvr|iso] [--dvr single|multi] [--tf FILE | --tf-preset ct|ramp]\n"
            "                    [--range auto|type|LO,HI] [--threshold D] [--resample F] [--spacing X,Y,Z]\n"
-           "                    [--lod-density F] [--lod-stddev F] [--lod-depth N] [--iso V]\n"
+           "                    [--lod-density F] [--lod-stddev F] [--lod-depth N] [--iso V[,V2,...]]\n"
            "                    [--iso-cull on|off] [--steps N] [--shading] [--opacity A] [--alpha-stop A]\n"
            "kd-trees (volumes): [--kd shallow|deep] [--kd-classify alpha|threshold] [--boxes FILE]\n"
            "                    [--tf-sequence TF1,TF2,...]\n"
@@ -24,6 +24,9 @@ const char* usage() {
            "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
            "kd-tree (Vidal et al.; Zellmann et al.): the same image, fewer samples.\n"
+           "--index implicit-kd renders exact isosurfaces of up to 4 --iso values over Wald et al.'s\n"
+           "implicit min/max kd-tree (--index dda: every cell, the reference; the same image). One\n"
+           "isovalue is opaque; with several, all but the last are translucent.\n"
            "With no input it renders a procedural galaxy of --count particles (default 1,000,000);\n"
            "with --mode and no input, a procedural volume. Volume files: NAME_XxYxZ_TYPE.raw, .nrrd, .nhdr.\n"
            "--range picks the raw values that map to density 0 and 1, which the threshold, the transfer\n"
@@ -71,6 +74,13 @@ std::vector<std::string> parse_list(const std::string& opt, const std::string& v
     if (out.empty()) throw std::invalid_argument(opt + " needs at least one file");
     return out;
 }
+std::vector<float> parse_isos(const std::string& v) {
+    std::vector<float> out;
+    std::stringstream ss(v);
+    for (std::string part; std::getline(ss, part, ',');) out.push_back(static_cast<float>(number("--iso", part, 0, 1)));
+    if (out.empty() || out.size() > 4) throw std::invalid_argument("--iso: '" + v + "' is not 1 to 4 values V1,V2,...");
+    return out;
+}
 sylva::volume::ValueRange parse_range(const std::string& v) {
     try {
         return sylva::volume::ValueRange::parse(v);
@@ -90,7 +100,7 @@ Options parse(int argc, char** argv) {
         };
         if (a == "--particles") o.particles = value();
         else if (a == "--volume") o.volume = value();
-        else if (a == "--index") o.index = one_of(a, value(), {"bih", "kd-vidal", "kd-binned", "none"});
+        else if (a == "--index") o.index = one_of(a, value(), {"bih", "kd-vidal", "kd-binned", "implicit-kd", "dda", "none"});
         else if (a == "--kd") o.kd = one_of(a, value(), {"shallow", "deep"});
         else if (a == "--kd-classify") o.kd_classify = one_of(a, value(), {"alpha", "threshold"});
         else if (a == "--boxes") o.boxes = value();
@@ -107,7 +117,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--lod-density") o.lod_density = static_cast<float>(number(a, value(), 0, 1));
         else if (a == "--lod-stddev") o.lod_stddev = static_cast<float>(number(a, value(), 0, 1));
         else if (a == "--lod-depth") o.lod_depth = static_cast<std::uint32_t>(number(a, value(), 0, 64));
-        else if (a == "--iso") o.iso = static_cast<float>(number(a, value(), 0, 1));
+        else if (a == "--iso") o.isos = parse_isos(value()), o.iso = o.isos.front();
         else if (a == "--iso-cull") o.iso_cull = one_of(a, value(), {"on", "off"}) == "on";
         else if (a == "--steps") o.steps = static_cast<std::uint32_t>(number(a, value(), 1, 1 << 16));
         else if (a == "--shading") o.shading = true;
@@ -137,6 +147,13 @@ Options parse(int argc, char** argv) {
         throw std::invalid_argument("--index none renders volumes only (the reference marcher); particles need --index bih");
     if (o.kd_index() && !o.volume_input())
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
+    if (o.ikd_index() && !o.volume_input())
+        throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
+    if (o.ikd_index() && o.mode == "dvr")
+        throw std::invalid_argument("--index " + o.index + " renders isosurfaces (--mode iso), not --mode dvr");
+    if (o.ikd_index()) o.mode = "iso";
+    if (o.isos.size() > 1 && !o.ikd_index())
+        throw std::invalid_argument("several --iso values need --index implicit-kd or dda");
     if (o.kd_index() && o.mode == "iso")
         throw std::invalid_argument("--index " + o.index + " renders --mode dvr only (the marcher with empty-space skipping)");
     if (o.range.mode != sylva::volume::ValueRange::Mode::Auto && (!o.volume_input() || o.procedural_volume()))

@@ -14,8 +14,10 @@ namespace sylva_render {
 struct Options {
     std::string particles;           ///< --particles FILE (float32 xyz triples)
     std::string volume;              ///< --volume FILE|procedural[:NAME] (.raw by name convention, .nrrd, .nhdr)
-    std::string index = "bih";       ///< --index bih|kd-vidal|kd-binned|none (none: the reference marcher, volumes only;
-                                     ///< kd-*: the marcher with empty-space skipping by a kd-tree, volumes only)
+    std::string index = "bih";       ///< --index bih|kd-vidal|kd-binned|implicit-kd|dda|none (none: the reference
+                                     ///< marcher, volumes only; kd-*: the marcher with empty-space skipping by a
+                                     ///< kd-tree; implicit-kd: exact isosurfaces over Wald's implicit kd-tree,
+                                     ///< dda: the same over every cell (the reference); volumes only)
     std::string mode;                ///< --mode dvr|iso (volumes, default dvr; implies a procedural volume without input)
     std::string dvr = "single";      ///< --dvr single|multi: BIH-DVR samples per leaf (Kinkelin 4.3)
     std::string tf;                  ///< --tf FILE (.json or text control points)
@@ -29,7 +31,8 @@ struct Options {
     float lod_density = 0.75f;       ///< --lod-density F: min element density of an LoD leaf (Table 3)
     float lod_stddev = 0.01f;        ///< --lod-stddev F: max std-dev of an LoD leaf's densities (Table 3)
     std::uint32_t lod_depth = 64;    ///< --lod-depth N: max LoD depth
-    float iso = 0.5f;                ///< --iso V: iso value for --mode iso
+    float iso = 0.5f;                ///< --iso V: iso value for --mode iso (the first of --iso V1,V2,...)
+    std::vector<float> isos{0.5f};   ///< --iso V1[,V2,...]: up to 4 isovalues (implicit-kd, dda)
     bool iso_cull = true;            ///< --iso-cull on|off: skip nodes whose density range excludes V
     std::uint32_t steps = 1024;      ///< --steps N: samples along the longest axis (reference marcher, multi)
     bool shading = false;            ///< --shading: Lambert shading from the gradient
@@ -58,6 +61,8 @@ struct Options {
 
     /// True for the kd-tree indices (--index kd-vidal|kd-binned).
     [[nodiscard]] bool kd_index() const { return index == "kd-vidal" || index == "kd-binned"; }
+    /// True for the exact isosurface indices (--index implicit-kd|dda).
+    [[nodiscard]] bool ikd_index() const { return index == "implicit-kd" || index == "dda"; }
 
     /// True when the volume is one of the procedural ones (no file).
     [[nodiscard]] bool procedural_volume() const { return volume.empty() || volume.rfind("procedural", 0) == 0; }
@@ -65,7 +70,7 @@ struct Options {
     /// True when this run renders a volume (a file, or the procedural volume for --mode or a
     /// kd-tree index).
     [[nodiscard]] bool volume_input() const {
-        return !volume.empty() || ((!mode.empty() || kd_index()) && particles.empty());
+        return !volume.empty() || ((!mode.empty() || kd_index() || ikd_index()) && particles.empty());
     }
 };
 

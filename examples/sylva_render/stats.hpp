@@ -29,6 +29,7 @@ struct Stats {
         std::string mode, grid;
         float range_lo = 0.0f, range_hi = 1.0f;  ///< raw values mapped to density 0 and 1 (--range)
         std::string range_source;                ///< where that range came from
+        std::size_t data_bytes = 0;              ///< the volume's voxels as read (procedural: float32)
         std::size_t voxels = 0, grid_bytes_16bit = 0;
         std::size_t full_nodes = 0, full_bytes = 0, full_bytes_paper = 0;
         double full_single_percent = 0, full_ms = 0;
@@ -56,6 +57,15 @@ struct Stats {
         };
         std::vector<Rebuild> rebuilds;
     } kd;
+
+    /// Isosurface runs (--index implicit-kd|dda): Wald et al.'s memory and traversal figures.
+    struct IsoRows {
+        bool present = false;
+        std::vector<float> isos;
+        std::size_t index_bytes = 0, cells = 0;
+        std::uint32_t levels = 0;
+        std::uint64_t cells_tested = 0, traversal_steps = 0, hits = 0;
+    } iso;
 
     void fill(const sylva::bih::Tree& t, std::size_t encoded_bytes, const sylva::Frame& f) {
         elements = t.stats.elements;
@@ -101,6 +111,7 @@ struct Stats {
            << "iterator steps   mean " << steps_mean << ", max " << steps_max << "\n";
         if (volume.present) print_volume(os);
         if (kd.present) print_kd(os);
+        if (iso.present) print_iso(os);
         if (errors) os << "ERRORS           " << errors << " rays ended on a corrupted encoding\n";
     }
 
@@ -125,6 +136,20 @@ struct Stats {
            << ", " << kb(v.lod_bytes) << " KB = "
            << 100.0 * static_cast<double>(v.lod_bytes) / static_cast<double>(std::max<std::size_t>(v.grid_bytes_16bit, 1))
            << "% of the 16-bit grid, extracted in " << v.lod_ms << " ms\n";
+    }
+
+    /// The implicit kd-tree's memory against the data (Wald Table III) and its traversal counts
+    /// (Tables I and II).
+    void print_iso(std::ostream& os) const {
+        auto mb = [](std::size_t b) { return static_cast<double>(b) / (1024.0 * 1024.0); };
+        os << "isosurfaces      " << iso.isos.size() << " (";
+        for (std::size_t k = 0; k < iso.isos.size(); ++k) os << (k ? ", " : "") << iso.isos[k];
+        os << "), " << iso.cells << " cells, " << iso.levels << " levels\n"
+           << "  memory         index " << mb(iso.index_bytes) << " MB, data " << mb(volume.data_bytes) << " MB ("
+           << (volume.data_bytes ? static_cast<double>(iso.index_bytes) / static_cast<double>(volume.data_bytes) : 0.0)
+           << "x the data)\n"
+           << "  traversal      " << iso.traversal_steps << " steps, " << iso.cells_tested << " cells intersected, "
+           << iso.hits << " hits\n";
     }
 
     /// The kd-tree's Table 1 columns (Zellmann et al.) and the --tf-sequence rebuilds.
@@ -170,7 +195,8 @@ struct Stats {
         if (volume.present) {
             const VolumeRows& v = volume;
             out << ", \"mode\": " << quoted(v.mode) << ", \"value_range\": [" << v.range_lo << ", " << v.range_hi
-                << "], \"value_range_source\": " << quoted(v.range_source) << ", \"voxels\": " << v.voxels
+                << "], \"value_range_source\": " << quoted(v.range_source) << ", \"data_bytes\": " << v.data_bytes
+                << ", \"voxels\": " << v.voxels
                 << ", \"grid_bytes_16bit\": " << v.grid_bytes_16bit << ", \"full_nodes\": " << v.full_nodes
                 << ", \"full_single_child_percent\": " << v.full_single_percent << ", \"full_max_depth\": " << v.full_depth
                 << ", \"full_bytes\": " << v.full_bytes << ", \"full_bytes_paper\": " << v.full_bytes_paper
@@ -178,6 +204,13 @@ struct Stats {
                 << ", \"lod_max_depth\": " << v.lod_depth << ", \"lod_bytes\": " << v.lod_bytes << ", \"lod_ms\": " << v.lod_ms;
         }
         if (kd.present) write_kd_json(out);
+        if (iso.present) {
+            out << ", \"isos\": [";
+            for (std::size_t k = 0; k < iso.isos.size(); ++k) out << (k ? ", " : "") << iso.isos[k];
+            out << "], \"index_bytes\": " << iso.index_bytes << ", \"cells\": " << iso.cells
+                << ", \"levels\": " << iso.levels << ", \"cells_tested\": " << iso.cells_tested
+                << ", \"traversal_steps\": " << iso.traversal_steps << ", \"hits\": " << iso.hits;
+        }
         out << "}\n";
         if (!out) throw sylva::Error("cannot write stats file " + path);
     }

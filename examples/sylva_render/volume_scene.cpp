@@ -1,5 +1,6 @@
 #include "volume_scene.hpp"
 
+#include "ikd_scene.hpp"
 #include "kd_scene.hpp"
 
 #include <algorithm>
@@ -60,10 +61,13 @@ volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s) {
         v.range_lo = raw.range_lo;
         v.range_hi = raw.range_hi;
         v.range_source = volume::range_source_name(raw.range_source);
+        v.data_bytes = raw.bytes.size();
         g = volume::normalize(raw);
     }
+    if (v.data_bytes == 0) v.data_bytes = g->values.size() * 4;  // procedural: float32 densities
     if (o.resample != 1.0f) {
         *g = volume::resample_trilinear(*g, o.resample, pool);
+        v.data_bytes = g->values.size() * 4;  // the resampled float32 grid is the data now
         s.input += ", resampled x" + std::to_string(o.resample);
     }
     return std::move(*g);
@@ -205,7 +209,8 @@ void warn_if_nothing_visible(const Options& o, const Stats& s, const volume::Den
     if (threshold_matters)
         err << "  threshold      " << density_text(o.threshold, v)
             << (s.elements == 0 ? ": no voxel reaches it, nothing was built" : "") << "\n";
-    if (o.mode == "iso") err << "  iso value      " << density_text(o.iso, v) << "\n";
+    if (o.mode == "iso")
+        for (float iso : o.isos) err << "  iso value      " << density_text(iso, v) << "\n";
     else err << "  transfer fn    transparent below density " << density_text(std::min(tf_from, 1.0f), v) << "\n";
     err << "  to see it      ";
     if (v.range_source == "type range" || v.range_source == "explicit") err << "--range auto (the data's min/max), ";
@@ -228,6 +233,7 @@ int run_volume(const Options& o) {
     volume::DensityGrid g = load_grid(o, pool, s);
     VolumeRenderParams p = render_params(o, g);
     if (o.kd_index()) return run_kd_volume(o, g, p, pool, s);
+    if (o.ikd_index()) return run_ikd_volume(o, g, p, pool, s);
     BuiltLod lod;
     if (o.index == "bih") lod = build_lod(o, g, pool, s);
     else s.bytes = g.values.size() * 4;  // the float grid the marcher reads; elements stay 0: no index
