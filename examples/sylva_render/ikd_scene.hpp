@@ -43,7 +43,10 @@ inline std::vector<sylva::IsoSurface> surfaces(const Options& o) {
 inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::VolumeRenderParams& vp,
                           sylva::ThreadPool& pool, Stats& s) {
     using namespace sylva;
-    ikd::Config cfg{s.volume.range_lo, s.volume.range_hi};
+    ikd::Config cfg;
+    cfg.brick_levels = o.ikd_bricks;
+    cfg.range_lo = s.volume.range_lo;
+    cfg.range_hi = s.volume.range_hi;
     ikd::Tree tree = ikd::build(g, pool, cfg);
     auto t0 = std::chrono::steady_clock::now();
     std::vector<std::uint32_t> words = ikd::encode(tree);

@@ -20,6 +20,7 @@ const char* usage() {
            "                    [--iso-cull on|off] [--steps N] [--shading] [--opacity A] [--alpha-stop A]\n"
            "kd-trees (volumes): [--kd shallow|deep] [--kd-classify alpha|threshold] [--boxes FILE]\n"
            "                    [--tf-sequence TF1,TF2,...]\n"
+           "isosurfaces:        [--index implicit-kd|dda] [--iso V1[,V2,V3,V4]] [--ikd-bricks N]\n"
            "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
            "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
@@ -118,6 +119,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--lod-stddev") o.lod_stddev = static_cast<float>(number(a, value(), 0, 1));
         else if (a == "--lod-depth") o.lod_depth = static_cast<std::uint32_t>(number(a, value(), 0, 64));
         else if (a == "--iso") o.isos = parse_isos(value()), o.iso = o.isos.front();
+        else if (a == "--ikd-bricks") o.ikd_bricks = static_cast<std::uint32_t>(number(a, value(), 0, 12));
         else if (a == "--iso-cull") o.iso_cull = one_of(a, value(), {"on", "off"}) == "on";
         else if (a == "--steps") o.steps = static_cast<std::uint32_t>(number(a, value(), 1, 1 << 16));
         else if (a == "--shading") o.shading = true;

@@ -68,8 +68,11 @@ struct Encoded {
     ikd::Tree tree;
     std::vector<std::uint32_t> words;
     GridWords gw;
-    explicit Encoded(volume::DensityGrid g)
-        : grid(std::move(g)), tree(ikd::build(grid)), words(ikd::encode(tree)), gw(GridWords::from(grid)) {}
+    explicit Encoded(volume::DensityGrid g, std::uint32_t brick_levels = ikd::Config{}.brick_levels)
+        : grid(std::move(g)),
+          tree(ikd::build(grid, ikd::Config{brick_levels})),
+          words(ikd::encode(tree)),
+          gw(GridWords::from(grid)) {}
 };
 
 /// The iterator's candidate cells of one ray, in the order it yields them.
@@ -147,7 +150,7 @@ std::pair<vec3, vec3> random_ray(std::mt19937& rng, vec3 box) {
 }  // namespace
 
 TEST_CASE("ikd levels: one axis per level, virtual padding, counts of real nodes", "[ikd]") {
-    ikd::Tree t = ikd::build(blobs({6, 3, 18}, 1));  // 5 x 2 x 17 cells, padded 8 x 2 x 32
+    ikd::Tree t = ikd::build(blobs({6, 3, 18}, 1), ikd::Config{0});  // 5 x 2 x 17 cells, padded 8 x 2 x 32
     CHECK(t.cells == glm::u32vec3(5, 2, 17));
     CHECK(t.lg == glm::u32vec3(3, 1, 5));
     REQUIRE(t.levels.size() == 9);
@@ -163,6 +166,16 @@ TEST_CASE("ikd levels: one axis per level, virtual padding, counts of real nodes
     CHECK(t.ranges.size() == stored);
     CHECK(t.levels.back().log2_width[t.levels.back().axis] == 1);  // the last stored level splits into cells
     CHECK(stored < 2 * t.cell_count());  // leaves (cells) are not stored; padding adds partial nodes
+    CHECK(t.stored_levels == 9);
+
+    ikd::Tree b = ikd::build(blobs({6, 3, 18}, 1), ikd::Config{3});  // the 3 bottom levels are bricks
+    REQUIRE(b.stored_levels == 6);
+    std::size_t kept = 0;
+    for (std::uint32_t l = 0; l < 6; ++l) kept += b.levels[l].count();
+    CHECK(b.ranges.size() == kept);
+    for (std::uint32_t l = 6; l < 9; ++l) CHECK(b.levels[l].first == kept);
+    CHECK(std::equal(b.ranges.begin(), b.ranges.end(), t.ranges.begin()));  // the same upper levels
+    CHECK(kept * 4 < stored);
 }
 
 TEST_CASE("ikd node ranges equal brute force over the cells below, rounded outward", "[ikd]") {
@@ -171,7 +184,7 @@ TEST_CASE("ikd node ranges equal brute force over the cells below, rounded outwa
         volume::DensityGrid g = blobs(d, d.x * 131 + d.y * 7 + d.z);
         SerialExecutor serial;
         ThreadPool pool(2);
-        ikd::Tree t = ikd::build(g, serial), tp = ikd::build(g, pool);
+        ikd::Tree t = ikd::build(g, serial, ikd::Config{0}), tp = ikd::build(g, pool, ikd::Config{0});
         CHECK(tp.ranges == t.ranges);  // parallel == serial
         for (const ikd::Level& l : t.levels)
             for (std::uint32_t k = 0; k < l.nodes.z; ++k)
@@ -192,8 +205,9 @@ TEST_CASE("ikd iterator: the candidate cells of brute force, front to back, same
     std::mt19937 rng(42);
     std::uniform_real_distribution<float> iso(0.15f, 0.75f);
     std::size_t rays_with_cells = 0;
-    for (volume::Dims d : {volume::Dims(2, 2, 2), volume::Dims(3, 5, 4), volume::Dims(17, 9, 33), volume::Dims(20, 20, 12)}) {
-        Encoded e(blobs(d, d.x + 1000 * d.z, vec3(1.0f, 0.75f, 1.5f)));
+    for (volume::Dims d : {volume::Dims(2, 2, 2), volume::Dims(3, 5, 4), volume::Dims(17, 9, 33), volume::Dims(20, 20, 12)})
+    for (std::uint32_t bricks : {0u, 3u, 6u}) {  // the slim tree, and bricks of 2^3 and 4^3 cells
+        Encoded e(blobs(d, d.x + 1000 * d.z, vec3(1.0f, 0.75f, 1.5f)), bricks);
         REQUIRE_NOTHROW(ikd::validate(e.words, e.gw.words.size()));
         vec3 box = vec3(d) * e.grid.spacing;
         for (int r = 0; r < 3000; ++r) {
@@ -212,7 +226,7 @@ TEST_CASE("ikd iterator: the candidate cells of brute force, front to back, same
             rays_with_cells += want.empty() ? 0 : 1;
         }
     }
-    CHECK(rays_with_cells > 3000);  // of 12000: the test sees real work
+    CHECK(rays_with_cells > 9000);  // of 36000: the test sees real work
 }
 
 TEST_CASE("ikd iterator: culling visits fewer nodes than cells crossed, and an isovalue outside the data none", "[ikd]") {
@@ -259,6 +273,9 @@ TEST_CASE("ikd bad input: too small, NaN or out-of-range densities, corrupted en
     CHECK_THROWS_WITH(ikd::validate(mutated(5, e.words[5] + 1), gn), Contains("levels"));
     CHECK_THROWS_WITH(ikd::validate(mutated(6, e.words[6] + 1), gn), Contains("nodes stored"));
     CHECK_THROWS_WITH(ikd::validate(mutated(7, 1), gn), Contains("node format"));
+    CHECK_THROWS_WITH(ikd::validate(mutated(7, 0x10000u), gn), Contains("node format"));
+    CHECK_THROWS_WITH(ikd::validate(mutated(7, 60u << 8), gn), Contains("stored levels"));
+    CHECK_THROWS_WITH(ikd::validate(mutated(7, e.words[7] - (1u << 8)), gn), Contains("level table"));
     CHECK_THROWS_WITH(ikd::validate(mutated(10, std::bit_cast<std::uint32_t>(-1.0f)), gn), Contains("spacing"));
     CHECK_THROWS_WITH(ikd::validate(mutated(16, 5), gn), Contains("truncated or padded"));
     CHECK_THROWS_WITH(ikd::validate(mutated(20, e.words[20] ^ 3u), gn), Contains("level table"));

@@ -4,6 +4,7 @@
 #ifndef SYLVA_IKD_ENCODE_HPP
 #define SYLVA_IKD_ENCODE_HPP
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <vector>
@@ -21,8 +22,9 @@ inline std::vector<std::uint32_t> encode(const Tree& t) {
     const std::size_t nodes_at = SYLVA_IKD_HEADER_WORDS + 2 * levels;
     const std::size_t total = nodes_at + t.ranges.size();
     if (total > 0xFFFFFFFFu) throw Error("ikd::encode: " + std::to_string(total) + " words exceed 2^32 - 1");
-    std::size_t expected = levels ? t.levels.back().first + t.levels.back().count() : 0;
-    if (expected != t.ranges.size() || levels != std::size_t{t.lg.x} + t.lg.y + t.lg.z)
+    std::size_t expected = 0;
+    for (std::size_t l = 0; l < std::min<std::size_t>(t.stored_levels, levels); ++l) expected += t.levels[l].count();
+    if (expected != t.ranges.size() || levels != std::size_t{t.lg.x} + t.lg.y + t.lg.z || t.stored_levels > levels)
         throw Error("ikd::encode: the tree's levels and node words disagree");
     std::vector<std::uint32_t> w(total, 0u);
     w[0] = SYLVA_IKD_MAGIC;
@@ -35,7 +37,7 @@ inline std::vector<std::uint32_t> encode(const Tree& t) {
     }
     w[5] = static_cast<std::uint32_t>(levels) | (t.lg.x << 8) | (t.lg.y << 16) | (t.lg.z << 24);
     w[6] = static_cast<std::uint32_t>(t.ranges.size());
-    w[7] = SYLVA_IKD_FORMAT_UNORM16;
+    w[7] = SYLVA_IKD_FORMAT_UNORM16 | (t.stored_levels << 8);
     w[8] = std::bit_cast<std::uint32_t>(t.range_lo);
     w[9] = std::bit_cast<std::uint32_t>(t.range_hi);
     w[16] = static_cast<std::uint32_t>(total);

@@ -22,7 +22,9 @@ inline void validate_fixed_words(std::span<const std::uint32_t> w) {
         throw Error("ikd::validate: " + std::to_string(w.size()) + " words, shorter than the 20-word header");
     if (w[0] != SYLVA_IKD_MAGIC) throw Error("ikd::validate: bad magic (not an implicit kd-tree encoding)");
     if (w[1] != SYLVA_IKD_VERSION) throw Error("ikd::validate: unsupported version " + std::to_string(w[1]));
-    if (w[7] != SYLVA_IKD_FORMAT_UNORM16) throw Error("ikd::validate: unknown node format " + std::to_string(w[7]));
+    if ((w[7] & 255u) != SYLVA_IKD_FORMAT_UNORM16 || (w[7] >> 16) != 0u)
+        throw Error("ikd::validate: unknown node format " + std::to_string(w[7] & 255u) + " (word 7 = " +
+                    std::to_string(w[7]) + ")");
     if (w[16] != w.size())
         throw Error("ikd::validate: the header says " + std::to_string(w[16]) + " words, the buffer holds " +
                     std::to_string(w.size()) + " (truncated or padded)");
@@ -57,6 +59,9 @@ inline void validate(std::span<const std::uint32_t> words, std::size_t grid_word
     if (levels != lg.x + lg.y + lg.z)
         throw Error("ikd::validate: " + std::to_string(levels) + " levels, the padding needs " +
                     std::to_string(lg.x + lg.y + lg.z));
+    std::uint32_t stored = (words[7] >> 8) & 255u;
+    if (stored > levels)
+        throw Error("ikd::validate: " + std::to_string(stored) + " stored levels of " + std::to_string(levels));
     std::size_t samples = std::size_t{cells.x + 1} * (cells.y + 1) * (cells.z + 1);
     if (samples > 0xFFFFFFFFu)
         throw Error("ikd::validate: a grid of " + std::to_string(samples) + " samples exceeds 2^32 - 1");
@@ -67,7 +72,7 @@ inline void validate(std::span<const std::uint32_t> words, std::size_t grid_word
     if (words.size() < SYLVA_IKD_HEADER_WORDS + 2 * std::size_t{levels})
         throw Error("ikd::validate: the level table does not fit in the buffer");
     Words buf{words.data(), words.size()};
-    std::uint32_t implied = sylva_ikd_check_levels(buf, cells, lg, levels);
+    std::uint32_t implied = sylva_ikd_check_levels(buf, cells, lg, levels, stored);
     if (implied == 0xFFFFFFFFu)
         throw Error("ikd::validate: the level table is inconsistent (axes, widths or first nodes)");
     if (implied != words[6] || words.size() != SYLVA_IKD_HEADER_WORDS + 2 * std::size_t{levels} + implied)

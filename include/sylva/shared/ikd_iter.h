@@ -254,11 +254,13 @@ SYLVA_FN bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYL
             continue;
         }
         uint entry = sylva_ikd_level_entry(SYLVA_PASS_BUF(words), it.level);
-        uint index = sylva_ikd_node_index(SYLVA_PASS_BUF(words), it.hdr.cells, it.level, entry, it.node);
-        vec2 range = sylva_ikd_node_range(SYLVA_LOAD(words, it.hdr.nodes_at + index));
-        if (!sylva_ikd_holds(it.isos, it.iso_count, range.x, range.y)) {
-            it.level = SYLVA_IKD_NO_NODE;  // culled with its subtree (section 4.1)
-            continue;
+        if (it.level < it.hdr.stored) {  // below: a brick's levels, not stored, never culled
+            uint index = sylva_ikd_node_index(SYLVA_PASS_BUF(words), it.hdr.cells, it.level, entry, it.node);
+            vec2 range = sylva_ikd_node_range(SYLVA_LOAD(words, it.hdr.nodes_at + index));
+            if (!sylva_ikd_holds(it.isos, it.iso_count, range.x, range.y)) {
+                it.level = SYLVA_IKD_NO_NODE;  // culled with its subtree (section 4.1)
+                continue;
+            }
         }
         sylva_ikd_descend(it, entry);
     }

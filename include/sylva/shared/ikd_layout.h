@@ -23,8 +23,11 @@
 //   5       bits 0-7: levels L; bits 8-12, 16-20, 24-28: lg.x, lg.y, lg.z (P = 2^lg, the least
 //           power of two >= C; L = lg.x + lg.y + lg.z <= 48)
 //   6       stored nodes N (levels 0 .. L - 1)
-//   7       node format: 0 = one word a node, normalised min density as unorm16 in bits 0-15
-//           (rounded down) and max in bits 16-31 (rounded up), so culling stays conservative
+//   7       bits 0-7: node format: 0 = one word a node, normalised min density as unorm16 in
+//           bits 0-15 (rounded down) and max in bits 16-31 (rounded up), so culling stays
+//           conservative; bits 8-15: stored levels S <= L. Levels S .. L - 1 are bricks
+//           (sylva/ikd/build.hpp Config::brick_levels): not stored, never culled, their cells
+//           tested one by one; bits 16-31: 0
 //   8-9     value range lo, hi (float bits): the raw values that mapped to densities 0 and 1
 //   10-12   spacing (float bits, finite, > 0): world size of one cell
 //   13-15   origin (float bits, finite): world position of sample (0, 0, 0)
@@ -34,7 +37,8 @@
 //   20 + 2l level table entry of level l (l = 0 .. L - 1):
 //           bits 0-1: split axis a (0 x, 1 y, 2 z); bits 8-12, 16-20, 24-28: log2 of the node
 //           width in cells w.x, w.y, w.z (level 0: lg; level l + 1: level l's with w.a - 1)
-//   21 + 2l first node of level l (index into the node words; level 0 starts at 0)
+//   21 + 2l first node of level l (index into the node words; level 0 starts at 0; levels
+//           S .. L - 1 store none and hold the node count N)
 //   20 + 2L the node words, level by level; node (x0, y0, z0) of level l is node
 //           first_l + (x0 >> w.x) + r.x * ((y0 >> w.y) + r.y * (z0 >> w.z)), with
 //           r = ceil(C / 2^w) the real nodes of the level per axis.
@@ -59,6 +63,7 @@ struct SylvaIkdHeader {
     uvec3 cells;
     uvec3 lg;
     uint levels;
+    uint stored;  ///< levels with node words (S); the rest are bricks
     uint node_count;
     uint format;
     vec3 spacing;
@@ -90,10 +95,11 @@ SYLVA_FN uvec3 sylva_ikd_level_widths(uint entry) {
 }
 
 /// Checks the level table: widths start at lg and halve along each level's axis down to single
-/// cells, and each level's first node follows the previous level's real nodes. Returns the
-/// node count it implies, or 0xFFFFFFFF when the table is inconsistent. Call it only for cell
-/// counts whose grid was checked to have fewer than 2^32 samples.
-SYLVA_FN uint sylva_ikd_check_levels(SYLVA_BUF(words), uvec3 cells, uvec3 lg, uint levels) {
+/// cells, and each stored level's first node follows the previous level's real nodes (levels
+/// from `stored` on hold none). Returns the node count it implies, or 0xFFFFFFFF when the table
+/// is inconsistent. Call it only for cell counts whose grid was checked to have fewer than
+/// 2^32 samples.
+SYLVA_FN uint sylva_ikd_check_levels(SYLVA_BUF(words), uvec3 cells, uvec3 lg, uint levels, uint stored) {
     uvec3 w = lg;
     uint first = 0u;
     for (uint l = 0u; l < levels; l++) {
@@ -104,7 +110,7 @@ SYLVA_FN uint sylva_ikd_check_levels(SYLVA_BUF(words), uvec3 cells, uvec3 lg, ui
         if (axis > 2u || lw.x != w.x || lw.y != w.y || lw.z != w.z || wa == 0u) return 0xFFFFFFFFu;
         if (SYLVA_LOAD(words, SYLVA_IKD_HEADER_WORDS + 2u * l + 1u) != first) return 0xFFFFFFFFu;
         uvec3 r = sylva_ikd_real_nodes(cells, w);
-        uint n = r.x * r.y * r.z;  // <= the cell count, below 2^32 once the grid size was checked
+        uint n = (l < stored) ? r.x * r.y * r.z : 0u;  // <= the cell count, below 2^32 (grid checked)
         if (first + n < first) return 0xFFFFFFFFu;
         first = first + n;
         w = uvec3((axis == 0u) ? w.x - 1u : w.x, (axis == 1u) ? w.y - 1u : w.y, (axis == 2u) ? w.z - 1u : w.z);
@@ -124,7 +130,8 @@ SYLVA_FN SylvaIkdHeader sylva_ikd_read_header(SYLVA_BUF(words), uint word_count,
     h.levels = packed & 255u;
     h.lg = uvec3(sylva_ikd_bits5(packed, 8u), sylva_ikd_bits5(packed, 16u), sylva_ikd_bits5(packed, 24u));
     h.node_count = SYLVA_LOAD(words, 6u);
-    h.format = SYLVA_LOAD(words, 7u);
+    h.format = SYLVA_LOAD(words, 7u) & 255u;
+    h.stored = (SYLVA_LOAD(words, 7u) >> 8u) & 255u;
     h.spacing = vec3(uintBitsToFloat(SYLVA_LOAD(words, 10u)), uintBitsToFloat(SYLVA_LOAD(words, 11u)),
                      uintBitsToFloat(SYLVA_LOAD(words, 12u)));
     h.inv_spacing = vec3(uintBitsToFloat(SYLVA_LOAD(words, 17u)), uintBitsToFloat(SYLVA_LOAD(words, 18u)),
@@ -134,11 +141,12 @@ SYLVA_FN SylvaIkdHeader sylva_ikd_read_header(SYLVA_BUF(words), uint word_count,
     h.nodes_at = SYLVA_IKD_HEADER_WORDS + 2u * h.levels;
     h.valid = 0u;
     bool ok = word_count >= SYLVA_IKD_HEADER_WORDS && SYLVA_LOAD(words, 0u) == SYLVA_IKD_MAGIC &&
-              SYLVA_LOAD(words, 1u) == SYLVA_IKD_VERSION && h.format == SYLVA_IKD_FORMAT_UNORM16;
+              SYLVA_LOAD(words, 1u) == SYLVA_IKD_VERSION && h.format == SYLVA_IKD_FORMAT_UNORM16 &&
+              (SYLVA_LOAD(words, 7u) >> 16u) == 0u;
     ok = ok && h.cells.x >= 1u && h.cells.y >= 1u && h.cells.z >= 1u && h.cells.x <= SYLVA_IKD_MAX_CELLS &&
          h.cells.y <= SYLVA_IKD_MAX_CELLS && h.cells.z <= SYLVA_IKD_MAX_CELLS;
     ok = ok && h.lg.x == sylva_ikd_log2_ceil(h.cells.x) && h.lg.y == sylva_ikd_log2_ceil(h.cells.y) &&
-         h.lg.z == sylva_ikd_log2_ceil(h.cells.z) && h.levels == h.lg.x + h.lg.y + h.lg.z;
+         h.lg.z == sylva_ikd_log2_ceil(h.cells.z) && h.levels == h.lg.x + h.lg.y + h.lg.z && h.stored <= h.levels;
     ok = ok && SYLVA_LOAD(words, 16u) == word_count && h.nodes_at <= word_count &&
          word_count - h.nodes_at == h.node_count;
     ok = ok && h.spacing.x > 0.0f && h.spacing.y > 0.0f && h.spacing.z > 0.0f && h.spacing.x < sylva_inf() &&
@@ -153,7 +161,7 @@ SYLVA_FN SylvaIkdHeader sylva_ikd_read_header(SYLVA_BUF(words), uint word_count,
     uint gy = h.cells.y + 1u;
     uint gz = h.cells.z + 1u;
     if (gx * gy / gy != gx || (gx * gy) * gz / gz != gx * gy || gx * gy * gz != grid_words) return h;
-    if (sylva_ikd_check_levels(SYLVA_PASS_BUF(words), h.cells, h.lg, h.levels) != h.node_count) return h;
+    if (sylva_ikd_check_levels(SYLVA_PASS_BUF(words), h.cells, h.lg, h.levels, h.stored) != h.node_count) return h;
     h.valid = 1u;
     return h;
 }
