@@ -4,7 +4,8 @@
 //     paper's slim tree without leaves;
 //   * speed (Fig. 7, Table I): rays/s, traversal steps, cells intersected and hits per ray, at
 //     one camera framing the volume, medians of --runs renders after a warm-up;
-//   * the image of the tree and of the DDA must be identical (checked every run).
+//   * 2x2 ray packets through the default tree (Wald 4.3; Table I's "SIMD" steps);
+//   * the images of the tree, its packets and the DDA must be identical (checked every case).
 // Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3
 // (float32 grids, densities in [0, 1]). JSON records {"case", "impl", "metric", "value", "unit"}.
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512] [--size N] [--runs R]
@@ -107,13 +108,16 @@ double median(std::vector<double> v) {
 /// per-ray counts; returns the last frame.
 Frame measure(const std::vector<std::uint32_t>& words, const GridWords& gw, IsoRenderParams p, IsoWalker w,
               std::size_t runs, ThreadPool& pool, const std::string& c, const std::string& impl,
-              std::vector<Record>& out) {
+              std::vector<Record>& out, bool packets = false) {
     p.walker = w;
     IsoCounters n;
-    Frame f = render_iso_cpu(words, gw, p, pool, &n);
+    auto render = [&] {
+        return packets ? render_iso_cpu_packets(words, gw, p, pool, &n) : render_iso_cpu(words, gw, p, pool, &n);
+    };
+    Frame f = render();
     std::vector<double> ms;
     for (std::size_t r = 0; r < runs; ++r) {
-        f = render_iso_cpu(words, gw, p, pool, &n);
+        f = render();
         ms.push_back(f.ms);
     }
     double rays = double(p.width) * p.height, med = median(ms);
@@ -144,6 +148,12 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
         out.push_back({c, impl, "index_bytes", double(words.size() * 4), "bytes"});
         out.push_back({c, impl, "index_per_data", double(words.size() * 4) / double(data_bytes), "x"});
         images[k++] = measure(words, gw, p, IsoWalker::Tree, o.runs, pool, c, impl, out);
+        if (bricks != 0) {  // 2x2 packets (Wald 4.3, Table I): the same image in fewer steps
+            Frame pk = measure(words, gw, p, IsoWalker::Tree, o.runs, pool, c, impl + "-packet", out, true);
+            bool same = std::memcmp(pk.rgba.data(), images[0].rgba.data(), pk.rgba.size() * sizeof(vec4)) == 0;
+            out.push_back({c, impl + "-packet", "image_equals_single", same ? 1.0 : 0.0, "bool"});
+            if (!same) std::cerr << "sylva-iso-bench: " << c << ": the packets' image differs from single rays'\n";
+        }
         if (bricks == 0) {
             Frame dda = measure(words, gw, p, IsoWalker::Dda, o.runs, pool, c, "dda", out);
             bool same = dda.rgba.size() == images[0].rgba.size() &&
@@ -187,7 +197,7 @@ int main(int argc, char** argv) {
         print(records);
         if (!o.json.empty()) write_json(o.json, records);
         for (const Record& r : records)
-            if (r.metric == "image_equals_tree" && r.value != 1.0) return 1;
+            if ((r.metric == "image_equals_tree" || r.metric == "image_equals_single") && r.value != 1.0) return 1;
         return 0;
     } catch (const std::exception& e) {
         std::cerr << "sylva-iso-bench: " << e.what() << "\n";
