@@ -179,7 +179,9 @@ inline std::uint64_t iso_tile(shared::Words tw, shared::Words gw, const shared::
     ikd::PacketCell c;
     while (it.next(c)) {
         for (int k = 0; k < ikd::kPacketLanes; ++k) {
-            if (!(c.mask >> k & 1u) || !(c.t0[k] < c.t1[k])) continue;  // touched only: as the single path
+            // Lanes done (opacity reached) take no more cells, as the single path stops; cells only
+            // touched (length 0) are skipped, as there.
+            if (!(c.mask >> k & 1u) || !(rgba[k].w < sp.alpha_stop) || !(c.t0[k] < c.t1[k])) continue;
             ++n.cells;
             rgba[k] = shared::sylva_iso_shade_cell(rgba[k], sp, c.cell, c.corners_lo, c.corners_hi, org[k], d[k],
                                                    h.inv_spacing, pk.direction[k], c.t0[k], c.t1[k], hits[k]);
