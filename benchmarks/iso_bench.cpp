@@ -126,6 +126,7 @@ Frame measure(const std::vector<std::uint32_t>& words, const GridWords& gw, IsoR
     out.push_back({c, impl, "steps_per_ray", double(n.steps) / rays, "steps"});
     out.push_back({c, impl, "cells_per_ray", double(n.cells) / rays, "cells"});
     out.push_back({c, impl, "hits", double(n.hits), "hits"});
+    if (packets) out.push_back({c, impl, "active_rays_per_step", double(n.lane_steps) / double(n.steps), "rays"});
     return f;
 }
 

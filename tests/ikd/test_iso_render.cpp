@@ -180,7 +180,10 @@ TEST_CASE("iso rendering: 2x2 packets give the single-ray image bit for bit, in 
         CHECK(single_n.cells == packet_n.cells);
         CHECK(single_n.hits == packet_n.hits);
         CHECK(packet_n.steps < single_n.steps);
-        CHECK(packet_n.steps * 2 > single_n.steps / 4);  // at most 4 rays share a step
+        CHECK(packet_n.steps * 4 >= single_n.steps);  // at most 4 rays share a step
+        // Each active lane of a packet step is one of the single rays' steps.
+        CHECK(packet_n.lane_steps == single_n.steps);
+        CHECK(packet_n.lane_steps > packet_n.steps);
     }
     // A camera inside the volume: the directions of a tile differ in sign and fall back to single rays.
     volume::DensityGrid g = volume::marschner_lobb({21, 21, 21});

@@ -119,6 +119,7 @@ public:
             if (!have_ && !pop()) break;
             have_ = false;
             ++steps_;
+            lane_steps_ += static_cast<std::uint32_t>(std::popcount(cur_.mask));
             if (cur_.level >= hdr_.levels) {
                 if (cell(cur_, out)) return true;
                 continue;
@@ -136,6 +137,9 @@ public:
     }
 
     [[nodiscard]] std::uint32_t steps() const { return steps_; }
+    /// Active lanes summed over the steps: lane_steps() / steps() is the average number of rays
+    /// active in a packet step (Wald's "SIMD efficiency", section 4.3).
+    [[nodiscard]] std::uint32_t lane_steps() const { return lane_steps_; }
     [[nodiscard]] std::uint32_t status() const { return status_; }
 
 private:
@@ -264,7 +268,7 @@ private:
     std::size_t sp_ = 0;
     Entry cur_{};
     bool have_ = false;
-    std::uint32_t steps_ = 0, status_ = SYLVA_ITER_RUNNING;
+    std::uint32_t steps_ = 0, lane_steps_ = 0, status_ = SYLVA_ITER_RUNNING;
 };
 
 }  // namespace sylva::ikd

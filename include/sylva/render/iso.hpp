@@ -59,6 +59,9 @@ struct IsoRenderParams {
 /// intersected, surface hits.
 struct IsoCounters {
     std::uint64_t steps = 0, cells = 0, hits = 0, errors = 0;
+    /// Packets only: active rays summed over the packet steps (lane_steps / steps = the average
+    /// number of rays active in a step); single rays leave it 0.
+    std::uint64_t lane_steps = 0;
 };
 
 /// The shared parameter block of `p` for a tree of `tree_words` and a grid of `grid_words`
@@ -157,6 +160,7 @@ inline std::uint64_t iso_tile(shared::Words tw, shared::Words gw, const shared::
         for (int k = 0; k < ikd::kPacketLanes; ++k) {
             if (!(pk.active >> k & 1u)) continue;
             shared::SylvaIsoRay r = shared::sylva_iso_trace(tw, gw, sp, pk.origin[k], pk.direction[k]);
+            n.lane_steps += r.steps;  // a single ray is one active lane per step
             f.rgba[at[k]] = r.rgba;
             f.steps[at[k]] = r.status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : r.steps;
             n.cells += r.cells;
@@ -195,6 +199,7 @@ inline std::uint64_t iso_tile(shared::Words tw, shared::Words gw, const shared::
         n.hits += hits[k];
         n.errors += it.status() == SYLVA_ITER_ERROR ? 1u : 0u;
     }
+    n.lane_steps += it.lane_steps();
     return it.steps();
 }
 
@@ -216,7 +221,7 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
     f.height = p.height;
     f.rgba.assign(std::size_t{p.width} * p.height, vec4(0.0f));
     f.steps.assign(f.rgba.size(), 0u);
-    std::atomic<std::uint64_t> cells{0}, hits{0}, steps{0}, errors{0};
+    std::atomic<std::uint64_t> cells{0}, hits{0}, steps{0}, errors{0}, lanes{0};
     auto start = std::chrono::steady_clock::now();
     std::uint32_t rows = (p.height + 1) / 2;
     exec.parallel_for(0, rows, 1, [&](std::size_t r0, std::size_t r1) {
@@ -229,9 +234,10 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
         hits += n.hits;
         steps += s;
         errors += n.errors;
+        lanes += n.lane_steps;
     });
     f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (counters) *counters = IsoCounters{steps.load(), cells.load(), hits.load(), errors.load()};
+    if (counters) *counters = IsoCounters{steps.load(), cells.load(), hits.load(), errors.load(), lanes.load()};
     return f;
 }
 
