@@ -27,7 +27,8 @@ void main() {
     SylvaIsoParams p = sylva_iso_read_params(0u);
     uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= p.width || px.y >= p.height) return;
-    SylvaIsoRay r = sylva_iso_pixel(0u, 0u, p, px.x, px.y);
+    SylvaIkdHeader hdr = sylva_ikd_read_header(0u, p.tree_words, p.grid_words);
+    SylvaIsoRay r = sylva_iso_pixel(0u, 0u, p, hdr, px.x, px.y);
     uint at = (px.y * p.width + px.x) * 8u;
     pixels[at] = floatBitsToUint(r.rgba.x);
     pixels[at + 1u] = floatBitsToUint(r.rgba.y);

@@ -88,9 +88,10 @@ TEST_CASE("iso rendering: a linear ramp's isosurface is the plane where the ramp
     for (float yz : {2.1f, 4.5f, 6.7f}) {
         for (vec3 dir : {vec3(1.0f, 0.0f, 0.0f), glm::normalize(vec3(1.0f, 0.2f, -0.1f))}) {
             vec3 eye(-3.0f, yz, 3.0f);
-            shared::SylvaIsoRay tree = shared::sylva_iso_trace(tw, gw, sp, eye, dir);
+            shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words);
+            shared::SylvaIsoRay tree = shared::sylva_iso_trace(tw, gw, sp, hdr, eye, dir);
             sp.walker = SYLVA_ISO_WALK_DDA;
-            shared::SylvaIsoRay dda = shared::sylva_iso_trace(tw, gw, sp, eye, dir);
+            shared::SylvaIsoRay dda = shared::sylva_iso_trace(tw, gw, sp, hdr, eye, dir);
             sp.walker = SYLVA_ISO_WALK_TREE;
             INFO("yz " << yz << " dir " << dir.x << " cells " << tree.cells << " steps " << tree.steps << " status " << tree.status);
             REQUIRE(tree.hits == 1);
@@ -120,7 +121,8 @@ TEST_CASE("iso rendering: the hit distance of a ray along the ramp is exact", "[
     std::vector<std::uint32_t> params = iso_params(p, s.words.size(), s.gw.words.size());
     shared::Words pw{params.data(), params.size()}, tw{s.words.data(), s.words.size()}, gw{s.gw.words.data(), s.gw.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
-    shared::SylvaIsoRay r = shared::sylva_iso_trace(tw, gw, sp, vec3(-3.0f, 1.2f, 1.3f), vec3(1.0f, 0.0f, 0.0f));
+    shared::SylvaIsoRay r = shared::sylva_iso_trace(tw, gw, sp, shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words),
+                                                    vec3(-3.0f, 1.2f, 1.3f), vec3(1.0f, 0.0f, 0.0f));
     CHECK(r.hits == 1);
     CHECK(r.rgba.w == Approx(128.0 / 255.0));  // opacity 0.5 as RGBA8
     // The t of the hit, through the shared iterator and cell intersection directly.

@@ -75,10 +75,19 @@ public:
     /// reader refuses gives status() == SYLVA_ITER_ERROR and no cells.
     PacketIter(std::span<const std::uint32_t> words, std::span<const std::uint32_t> grid, const RayPacket& p, vec4 isos,
                std::uint32_t iso_count)
-        : words_{words.data(), words.size()}, grid_{grid.data(), grid.size()}, isos_(isos), iso_count_(iso_count) {
+        : PacketIter(words, grid,
+                     shared::sylva_ikd_read_header(shared::Words{words.data(), words.size()},
+                                                   static_cast<std::uint32_t>(words.size()),
+                                                   static_cast<std::uint32_t>(grid.size())),
+                     p, isos, iso_count) {}
+
+    /// The same with the header sylva_ikd_read_header gave for these buffers (read once per
+    /// frame by a renderer).
+    PacketIter(std::span<const std::uint32_t> words, std::span<const std::uint32_t> grid,
+               const shared::SylvaIkdHeader& hdr, const RayPacket& p, vec4 isos, std::uint32_t iso_count)
+        : words_{words.data(), words.size()}, grid_{grid.data(), grid.size()}, hdr_(hdr), isos_(isos),
+          iso_count_(iso_count) {
         if (!same_signs(p)) throw Error("ikd::PacketIter: the rays' direction signs differ");
-        hdr_ = shared::sylva_ikd_read_header(words_, static_cast<std::uint32_t>(words.size()),
-                                              static_cast<std::uint32_t>(grid.size()));
         if (hdr_.valid == 0u) {
             status_ = SYLVA_ITER_ERROR;
             return;
@@ -137,6 +146,8 @@ public:
     }
 
     [[nodiscard]] std::uint32_t steps() const { return steps_; }
+    /// The tree's header (for mapping the lanes' rays into cell space as the iterator does).
+    [[nodiscard]] const shared::SylvaIkdHeader& header() const { return hdr_; }
     /// Active lanes summed over the steps: lane_steps() / steps() is the average number of rays
     /// active in a packet step (Wald's "SIMD efficiency", section 4.3).
     [[nodiscard]] std::uint32_t lane_steps() const { return lane_steps_; }

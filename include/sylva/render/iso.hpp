@@ -94,6 +94,45 @@ inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size
     return w;
 }
 
+namespace detail {
+
+/// A frame of p's size, every pixel transparent with 0 steps.
+inline Frame iso_frame(const IsoRenderParams& p) {
+    Frame f;
+    f.width = p.width;
+    f.height = p.height;
+    f.rgba.assign(std::size_t{p.width} * p.height, vec4(0.0f));
+    f.steps.assign(f.rgba.size(), 0u);
+    return f;
+}
+
+/// IsoCounters summed over the executor's workers.
+struct IsoTotals {
+    std::atomic<std::uint64_t> steps{0}, cells{0}, hits{0}, errors{0}, lane_steps{0};
+    void add(const IsoCounters& n) {
+        steps += n.steps;
+        cells += n.cells;
+        hits += n.hits;
+        errors += n.errors;
+        lane_steps += n.lane_steps;
+    }
+    [[nodiscard]] IsoCounters get() const {
+        return {steps.load(), cells.load(), hits.load(), errors.load(), lane_steps.load()};
+    }
+};
+
+/// Adds one traced ray to the pixel at i and to the counters.
+inline void iso_store(const shared::SylvaIsoRay& r, std::size_t i, Frame& f, IsoCounters& n) {
+    f.rgba[i] = r.rgba;
+    f.steps[i] = r.status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : r.steps;
+    n.steps += r.steps;
+    n.cells += r.cells;
+    n.hits += r.hits;
+    n.errors += r.status == SYLVA_ITER_ERROR ? 1u : 0u;
+}
+
+}  // namespace detail
+
 /// Renders the isosurfaces of an encoded implicit kd-tree (ikd::encode) over `grid` (the
 /// GridWords of the grid it was built from) on the host. Frame::steps holds each pixel's
 /// traversal steps (0xFFFFFFFF where the encoding was refused); `counters`, when given, gets
@@ -104,43 +143,30 @@ Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid
     std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size());
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
-    Frame f;
-    f.width = p.width;
-    f.height = p.height;
-    f.rgba.assign(std::size_t{p.width} * p.height, vec4(0.0f));
-    f.steps.assign(f.rgba.size(), 0u);
-    std::atomic<std::uint64_t> cells{0}, hits{0}, steps{0}, errors{0};
+    shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words);  // once a frame
+    Frame f = detail::iso_frame(p);
+    detail::IsoTotals totals;
     auto start = std::chrono::steady_clock::now();
     exec.parallel_for(0, p.height, 1, [&](std::size_t y0, std::size_t y1) {
-        std::uint64_t c = 0, h = 0, s = 0, e = 0;
+        IsoCounters n;
         for (std::size_t y = y0; y < y1; ++y)
-            for (std::uint32_t x = 0; x < p.width; ++x) {
-                shared::SylvaIsoRay r = shared::sylva_iso_pixel(tw, gw, sp, x, static_cast<std::uint32_t>(y));
-                std::size_t i = y * p.width + x;
-                f.rgba[i] = r.rgba;
-                f.steps[i] = r.status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : r.steps;
-                c += r.cells;
-                h += r.hits;
-                s += r.steps;
-                e += r.status == SYLVA_ITER_ERROR ? 1u : 0u;
-            }
-        cells += c;
-        hits += h;
-        steps += s;
-        errors += e;
+            for (std::uint32_t x = 0; x < p.width; ++x)
+                detail::iso_store(shared::sylva_iso_pixel(tw, gw, sp, hdr, x, static_cast<std::uint32_t>(y)),
+                                  y * p.width + x, f, n);
+        totals.add(n);
     });
     f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (counters) *counters = IsoCounters{steps.load(), cells.load(), hits.load(), errors.load()};
+    if (counters) *counters = totals.get();
     return f;
 }
 
 namespace detail {
 
 /// Shades the 2x2 tile at (x0, y0) with one packet (ikd::PacketIter); lanes outside the image
-/// stay inactive. Falls back to single rays when the directions' signs differ. Returns the
-/// packet's traversal steps.
-inline std::uint64_t iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp, std::uint32_t x0,
-                              std::uint32_t y0, Frame& f, IsoCounters& n) {
+/// stay inactive. Falls back to single rays when the directions' signs differ. Adds the packet's
+/// traversal steps (or the single rays') to n.
+inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp,
+                     const shared::SylvaIkdHeader& hdr, std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
     ikd::RayPacket pk;
     std::array<std::size_t, ikd::kPacketLanes> at{};
     for (int k = 0; k < ikd::kPacketLanes; ++k) {
@@ -156,29 +182,23 @@ inline std::uint64_t iso_tile(shared::Words tw, shared::Words gw, const shared::
         at[k] = std::size_t{y} * sp.width + x;
     }
     if (!ikd::same_signs(pk)) {  // single rays, as render_iso_cpu
-        std::uint64_t steps = 0;
         for (int k = 0; k < ikd::kPacketLanes; ++k) {
             if (!(pk.active >> k & 1u)) continue;
-            shared::SylvaIsoRay r = shared::sylva_iso_trace(tw, gw, sp, pk.origin[k], pk.direction[k]);
+            shared::SylvaIsoRay r = shared::sylva_iso_trace(tw, gw, sp, hdr, pk.origin[k], pk.direction[k]);
             n.lane_steps += r.steps;  // a single ray is one active lane per step
-            f.rgba[at[k]] = r.rgba;
-            f.steps[at[k]] = r.status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : r.steps;
-            n.cells += r.cells;
-            n.hits += r.hits;
-            n.errors += r.status == SYLVA_ITER_ERROR ? 1u : 0u;
-            steps += r.steps;
+            iso_store(r, at[k], f, n);
         }
-        return steps;
+        return;
     }
-    ikd::PacketIter it({tw.data, tw.size}, {gw.data, gw.size}, pk, sp.isos, sp.iso_count);
+    ikd::PacketIter it({tw.data, tw.size}, {gw.data, gw.size}, hdr, pk, sp.isos, sp.iso_count);
     std::array<vec4, ikd::kPacketLanes> rgba{};
     std::array<vec3, ikd::kPacketLanes> org{}, rcp{}, d{};
     std::array<glm::u32vec3, ikd::kPacketLanes> par{};
     std::array<std::uint32_t, ikd::kPacketLanes> hits{};
-    shared::SylvaIkdHeader h = shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words);
     for (int k = 0; k < ikd::kPacketLanes; ++k) {
-        shared::sylva_ray_to_grid(pk.origin[k], pk.direction[k], h.origin, h.inv_spacing, 0.0f, 1.0f, org[k], rcp[k], par[k]);
-        d[k] = pk.direction[k] * h.inv_spacing;
+        shared::sylva_ray_to_grid(pk.origin[k], pk.direction[k], hdr.origin, hdr.inv_spacing, 0.0f, 1.0f, org[k], rcp[k],
+                                  par[k]);
+        d[k] = pk.direction[k] * hdr.inv_spacing;
     }
     ikd::PacketCell c;
     while (it.next(c)) {
@@ -188,7 +208,7 @@ inline std::uint64_t iso_tile(shared::Words tw, shared::Words gw, const shared::
             if (!(c.mask >> k & 1u) || !(rgba[k].w < sp.alpha_stop) || !(c.t0[k] < c.t1[k])) continue;
             ++n.cells;
             rgba[k] = shared::sylva_iso_shade_cell(rgba[k], sp, c.cell, c.corners_lo, c.corners_hi, org[k], d[k],
-                                                   h.inv_spacing, pk.direction[k], c.t0[k], c.t1[k], hits[k]);
+                                                   hdr.inv_spacing, pk.direction[k], c.t0[k], c.t1[k], hits[k]);
             if (!(rgba[k].w < sp.alpha_stop)) it.clip(k, -shared::sylva_inf());
         }
     }
@@ -200,7 +220,7 @@ inline std::uint64_t iso_tile(shared::Words tw, shared::Words gw, const shared::
         n.errors += it.status() == SYLVA_ITER_ERROR ? 1u : 0u;
     }
     n.lane_steps += it.lane_steps();
-    return it.steps();
+    n.steps += it.steps();
 }
 
 }  // namespace detail
@@ -216,28 +236,19 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
     std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size());
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
-    Frame f;
-    f.width = p.width;
-    f.height = p.height;
-    f.rgba.assign(std::size_t{p.width} * p.height, vec4(0.0f));
-    f.steps.assign(f.rgba.size(), 0u);
-    std::atomic<std::uint64_t> cells{0}, hits{0}, steps{0}, errors{0}, lanes{0};
+    shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words);  // once a frame
+    Frame f = detail::iso_frame(p);
+    detail::IsoTotals totals;
     auto start = std::chrono::steady_clock::now();
-    std::uint32_t rows = (p.height + 1) / 2;
-    exec.parallel_for(0, rows, 1, [&](std::size_t r0, std::size_t r1) {
+    exec.parallel_for(0, (p.height + 1) / 2, 1, [&](std::size_t r0, std::size_t r1) {
         IsoCounters n;
-        std::uint64_t s = 0;
         for (std::size_t r = r0; r < r1; ++r)
             for (std::uint32_t x = 0; x < p.width; x += 2)
-                s += detail::iso_tile(tw, gw, sp, x, static_cast<std::uint32_t>(2 * r), f, n);
-        cells += n.cells;
-        hits += n.hits;
-        steps += s;
-        errors += n.errors;
-        lanes += n.lane_steps;
+                detail::iso_tile(tw, gw, sp, hdr, x, static_cast<std::uint32_t>(2 * r), f, n);
+        totals.add(n);
     });
     f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (counters) *counters = IsoCounters{steps.load(), cells.load(), hits.load(), errors.load(), lanes.load()};
+    if (counters) *counters = totals.get();
     return f;
 }
 

@@ -48,10 +48,10 @@ SYLVA_FN float sylva_dda_plane_t(float coord, float o, float r, uint par) {
     return (par != 0u) ? sylva_inf() : sylva_canon((coord - o) * r);
 }
 
-/// Starts a walk (same arguments as sylva_ikd_init).
-SYLVA_FN void sylva_dda_init(SYLVA_OUT(SylvaDdaIter) it, SYLVA_BUF(words), uint word_count, uint grid_words,
-                             vec3 origin, vec3 direction, float t_min, float t_max, vec4 isos, uint iso_count) {
-    it.hdr = sylva_ikd_read_header(SYLVA_PASS_BUF(words), word_count, grid_words);
+/// Starts a walk with a header sylva_ikd_read_header gave (as sylva_ikd_begin).
+SYLVA_FN void sylva_dda_begin(SYLVA_OUT(SylvaDdaIter) it, SylvaIkdHeader hdr, vec3 origin, vec3 direction, float t_min,
+                              float t_max, vec4 isos, uint iso_count) {
+    it.hdr = hdr;
     it.isos = isos;
     it.iso_count = (iso_count < 4u) ? iso_count : 4u;
     it.t_min = t_min;
@@ -91,6 +91,13 @@ SYLVA_FN void sylva_dda_init(SYLVA_OUT(SylvaDdaIter) it, SYLVA_BUF(words), uint 
                         (it.parallel.y != 0u) ? 0 : ((floatBitsToUint(it.rcp.y) >> 31u) != 0u ? -1 : 1),
                         (it.parallel.z != 0u) ? 0 : ((floatBitsToUint(it.rcp.z) >> 31u) != 0u ? -1 : 1));
     it.max_steps = c.x + c.y + c.z + 3u;
+}
+
+/// Starts a walk (same arguments as sylva_ikd_init).
+SYLVA_FN void sylva_dda_init(SYLVA_OUT(SylvaDdaIter) it, SYLVA_BUF(words), uint word_count, uint grid_words,
+                             vec3 origin, vec3 direction, float t_min, float t_max, vec4 isos, uint iso_count) {
+    sylva_dda_begin(it, sylva_ikd_read_header(SYLVA_PASS_BUF(words), word_count, grid_words), origin, direction, t_min,
+                    t_max, isos, iso_count);
 }
 
 /// Prunes the cells entered after t.

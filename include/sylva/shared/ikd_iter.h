@@ -100,10 +100,11 @@ SYLVA_FN vec2 sylva_ikd_box_interval(vec3 org, vec3 rcp, uvec3 par, uvec3 cells,
 }
 
 /// Starts a traversal of origin + t * direction over [t_min, t_max] (world space) for the first
-/// `iso_count` (1 .. 4) of `isos`. `word_count` and `grid_words` are the sizes of the two buffers.
-SYLVA_FN void sylva_ikd_init(SYLVA_OUT(SylvaIkdIter) it, SYLVA_BUF(words), uint word_count, uint grid_words,
-                             vec3 origin, vec3 direction, float t_min, float t_max, vec4 isos, uint iso_count) {
-    it.hdr = sylva_ikd_read_header(SYLVA_PASS_BUF(words), word_count, grid_words);
+/// `iso_count` (1 .. 4) of `isos`, with the header sylva_ikd_read_header gave: a renderer reads
+/// and checks it once per frame, not once per ray (the level-table check loops over the levels).
+SYLVA_FN void sylva_ikd_begin(SYLVA_OUT(SylvaIkdIter) it, SylvaIkdHeader hdr, vec3 origin, vec3 direction, float t_min,
+                              float t_max, vec4 isos, uint iso_count) {
+    it.hdr = hdr;
     it.isos = isos;
     it.iso_count = (iso_count < 4u) ? iso_count : 4u;
     it.sp = 0u;
@@ -136,6 +137,14 @@ SYLVA_FN void sylva_ikd_init(SYLVA_OUT(SylvaIkdIter) it, SYLVA_BUF(words), uint 
         it.t_in = t.x;
         it.t_out = t.y;
     }
+}
+
+/// sylva_ikd_begin with the header of `words` (`word_count` and `grid_words` are the sizes of
+/// the two buffers).
+SYLVA_FN void sylva_ikd_init(SYLVA_OUT(SylvaIkdIter) it, SYLVA_BUF(words), uint word_count, uint grid_words,
+                             vec3 origin, vec3 direction, float t_min, float t_max, vec4 isos, uint iso_count) {
+    sylva_ikd_begin(it, sylva_ikd_read_header(SYLVA_PASS_BUF(words), word_count, grid_words), origin, direction, t_min,
+                    t_max, isos, iso_count);
 }
 
 /// Prunes everything the ray would enter after t (first hits, early termination).

@@ -141,8 +141,10 @@ SYLVA_FN vec4 sylva_iso_shade_cell(vec4 acc, SylvaIsoParams p, uvec3 cell, vec4 
 }
 
 /// Traces the ray eye + t dir (dir unit length) through the candidate cells of the walker
-/// p.walker names (the tree, or the reference DDA).
-SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, vec3 eye, vec3 dir) {
+/// p.walker names (the tree, or the reference DDA); `hdr` is the tree's header
+/// (sylva_ikd_read_header(words, p.tree_words, p.grid_words), read once for all rays).
+SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, SylvaIkdHeader hdr, vec3 eye,
+                                     vec3 dir) {
     SylvaIsoRay r;
     r.rgba = vec4(0.0f, 0.0f, 0.0f, 0.0f);
     r.cells = 0u;
@@ -151,9 +153,9 @@ SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIso
     SylvaIkdIter it;
     SylvaDdaIter dda;
     if (tree) {
-        sylva_ikd_init(it, SYLVA_PASS_BUF(words), p.tree_words, p.grid_words, eye, dir, 0.0f, sylva_inf(), p.isos, p.iso_count);
+        sylva_ikd_begin(it, hdr, eye, dir, 0.0f, sylva_inf(), p.isos, p.iso_count);
     } else {
-        sylva_dda_init(dda, SYLVA_PASS_BUF(words), p.tree_words, p.grid_words, eye, dir, 0.0f, sylva_inf(), p.isos, p.iso_count);
+        sylva_dda_begin(dda, hdr, eye, dir, 0.0f, sylva_inf(), p.isos, p.iso_count);
     }
     vec3 s = tree ? it.hdr.inv_spacing : dda.hdr.inv_spacing;
     vec3 org = tree ? it.org : dda.org;
@@ -175,11 +177,12 @@ SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIso
 }
 
 /// Renders pixel (x, y): the camera ray, normalised, through the walker the parameters name.
-SYLVA_FN SylvaIsoRay sylva_iso_pixel(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, uint x, uint y) {
+SYLVA_FN SylvaIsoRay sylva_iso_pixel(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, SylvaIkdHeader hdr, uint x,
+                                     uint y) {
     vec3 d = sylva_camera_dir(p.w, p.u, p.v, x, y, p.width, p.height);
     float len = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
     vec3 dir = vec3(d.x / len, d.y / len, d.z / len);
-    return sylva_iso_trace(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(grid), p, p.eye, dir);
+    return sylva_iso_trace(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(grid), p, hdr, p.eye, dir);
 }
 
 SYLVA_END_NAMESPACE
