@@ -6,6 +6,14 @@
 //     one camera framing the volume, medians of --runs renders after a warm-up;
 //   * 2x2 ray packets through the default tree (Wald 4.3; Table I's "SIMD" steps);
 //   * the images of the tree, its packets and the DDA must be identical (checked every case).
+// Peer on the same camera, rays, size and isovalue, on the same thread pool:
+//   * bih-iso: Kinkelin's voxel BIH with its level of detail in VolumeMode::BihIso (first sample
+//     reaching the isovalue in a leaf's linear density, node-range iso culling), built and
+//     rendered with sylva-render's defaults (threshold 0.1, LoD depth 64 / density 0.75 /
+//     std-dev 0.01, chunk depth 2, dt = longest extent / 1024, shading); build_ms is the wall time
+//     of cuboids + BIH + LoD + encoding + node ranges, index_bytes the BIH and range words.
+//     Sampled, not exact: pixels_differing_from_tree counts pixels whose hit / miss differs
+//     from the implicit kd-tree's (reported, never fatal).
 // Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3
 // (float32 grids, densities in [0, 1]). JSON records {"case", "impl", "metric", "value", "unit"}.
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512] [--size N] [--runs R]
@@ -21,12 +29,17 @@
 #include <string>
 #include <vector>
 
+#include <sylva/bih/lod.hpp>
+#include <sylva/bih/stats.hpp>
 #include <sylva/core/executor.hpp>
 #include <sylva/ikd/build.hpp>
 #include <sylva/ikd/encode.hpp>
 #include <sylva/render/iso.hpp>
 #include <sylva/volume/procedural.hpp>
 #include <sylva/volume/read.hpp>
+#include <sylva/volume/transfer_function.hpp>
+#include <sylva/volume/voxels.hpp>
+
 
 #include "cli.hpp"
 
@@ -130,6 +143,62 @@ Frame measure(const std::vector<std::uint32_t>& words, const GridWords& gw, IsoR
     return f;
 }
 
+/// Pixels whose hit / miss (opacity > 0) differs between a and b.
+std::size_t hit_differences(const Frame& a, const Frame& b) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < a.rgba.size() && i < b.rgba.size(); ++i) n += (a.rgba[i].w > 0.0f) != (b.rgba[i].w > 0.0f);
+    return n;
+}
+
+/// Kinkelin's voxel BIH in iso mode, as sylva-render --mode iso builds and renders it by default.
+void run_bih_iso(const volume::DensityGrid& g, const IsoRenderParams& ip, const Frame& tree, std::size_t runs,
+                 ThreadPool& pool, const std::string& c, std::vector<Record>& out) {
+    const std::string impl = "bih-iso";
+    const float iso = ip.isos.front().value;
+    auto t0 = std::chrono::steady_clock::now();
+    // sylva-render's --threshold 0.1 (lowered to the isovalue below it, so the surface has voxels)
+    std::vector<VoxelCuboid> cuboids = volume::voxel_cuboids(g, std::min(0.1f, iso), pool);
+    if (cuboids.empty()) {
+        std::cerr << "sylva-iso-bench: " << c << ": no voxel reaches the BIH threshold (bih-iso left out)\n";
+        return;
+    }
+    bih::FullBih full = bih::build_full(std::span<const VoxelCuboid>(cuboids), bih::Config{}, pool);
+    bih::LodConfig lc{64, 0.75f, 0.01f, 2};  // sylva-render's --lod-depth, --lod-density, --lod-stddev, --chunk-depth
+    bih::Lod lod = bih::extract_lod(full, lc);
+    std::vector<std::uint32_t> words = bih::encode_lod(lod, lc), ranges = bih::encode_node_ranges(lod, lc);
+    double build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    VolumeRenderParams p;  // sylva-render's defaults for --mode iso
+    p.camera = ip.camera;
+    p.width = ip.width;
+    p.height = ip.height;
+    p.tf = volume::TransferFunction::ct_bone_tissue().packed_rgba8();
+    vec3 e = g.world_box().extent();
+    p.dt = std::max(e.x, std::max(e.y, e.z)) / 1024.0f;  // --steps 1024
+    p.unit = std::min(g.spacing.x, std::min(g.spacing.y, g.spacing.z));
+    p.shading = true;
+    p.alpha_stop = 0.99f;
+    p.iso = iso;
+    p.mode = VolumeMode::BihIso;
+    p.iso_culling = true;
+    VoxelBihView view{words, ranges, g.spacing, g.world_box()};
+    Frame f = render_bih_dvr_cpu(view, p, pool);  // warm-up
+    std::vector<double> ms;
+    for (std::size_t r = 0; r < runs; ++r) {
+        f = render_bih_dvr_cpu(view, p, pool);
+        ms.push_back(f.ms);
+    }
+    double rays = double(p.width) * p.height, med = median(ms);
+    std::size_t hits = 0;
+    for (const vec4& px : f.rgba) hits += px.w > 0.0f;
+    out.push_back({c, impl, "build_ms", build_ms, "ms"});
+    out.push_back({c, impl, "index_bytes", double((words.size() + ranges.size()) * 4), "bytes"});
+    out.push_back({c, impl, "rays_per_s", rays / (med / 1000.0), "rays/s"});
+    out.push_back({c, impl, "frame_ms", med, "ms"});
+    out.push_back({c, impl, "hits", double(hits), "hits"});
+    out.push_back({c, impl, "pixels_differing_from_tree", double(hit_differences(f, tree)), "pixels"});
+}
+
+
 void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vector<Record>& out) {
     std::optional<volume::DensityGrid> g = grid_of(c);
     if (!g) return;
@@ -163,12 +232,13 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
             if (!same) std::cerr << "sylva-iso-bench: " << c << ": the DDA's image differs from the tree's\n";
         }
     }
+    run_bih_iso(*g, p, images[0], o.runs, pool, c, out);
     out.push_back({c, "data", "data_bytes", double(data_bytes), "bytes"});
 }
 
 void print(const std::vector<Record>& rs) {
-    std::printf("%-10s %-18s %-18s %14s %s\n", "case", "impl", "metric", "value", "unit");
-    for (const Record& r : rs) std::printf("%-10s %-18s %-18s %14.4g %s\n", r.c.c_str(), r.impl.c_str(), r.metric.c_str(), r.value, r.unit.c_str());
+    std::printf("%-10s %-18s %-26s %14s %s\n", "case", "impl", "metric", "value", "unit");
+    for (const Record& r : rs) std::printf("%-10s %-18s %-26s %14.4g %s\n", r.c.c_str(), r.impl.c_str(), r.metric.c_str(), r.value, r.unit.c_str());
 }
 
 void write_json(const std::string& path, const std::vector<Record>& rs) {
