@@ -19,6 +19,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers  # Vulkan loader + lavapipe, so GPU tests run without a GPU
   glslang-tools glslang-dev spirv-tools  # shaders -> SPIR-V at build time, validation
   libtbb-dev libembree-dev           # benchmark peers
+  libnanovdb-dev                     # sylva-iso-bench's NanoVDB HDDA peer (headers only; optional at configure time)
   zlib1g-dev                         # gzip-encoded NRRD volumes (optional)
 )
 
