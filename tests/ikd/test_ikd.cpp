@@ -201,6 +201,37 @@ TEST_CASE("ikd node ranges equal brute force over the cells below, rounded outwa
     }
 }
 
+TEST_CASE("ikd node words are tested in integer codes exactly as their float ranges", "[ikd]") {
+    // sylva_ikd_word_holds(word, codes of v) must equal sylva_ikd_holds(v, node_range(word)) for
+    // every code: checked over all 65536 codes per isovalue, at code densities, between them,
+    // just beside them (one ulp), at the ends, outside [0, 1] and NaN.
+    std::vector<float> isos{0.0f, -0.0f, 1.0f, -1e-30f, 1.0f + 1e-7f, 2.0f, -3.0f, 0.3f, 0.5f,
+                            std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::denorm_min()};
+    std::mt19937 rng(11);
+    std::uniform_int_distribution<std::uint32_t> code(0, 65535);
+    for (int i = 0; i < 60; ++i) {
+        float c = float(code(rng)) / 65535.0f;
+        isos.insert(isos.end(), {c, std::nextafter(c, 0.0f), std::nextafter(c, 1.0f), std::uniform_real_distribution<float>(0, 1)(rng)});
+    }
+    std::size_t wrong_lo = 0, wrong_hi = 0;
+    for (float v : isos) {
+        glm::uvec4 at_most, below;
+        shared::sylva_ikd_iso_codes(vec4(v, 0.5f, 0.5f, 0.5f), 1u, at_most, below);
+        CHECK(at_most.y == 0u);  // isovalues past the count never match
+        for (std::uint32_t q = 0; q < 65536u; ++q) {
+            float d = float(q) / 65535.0f;
+            wrong_lo += (q < at_most.x) != (d <= v);
+            wrong_hi += (q >= below.x) != (d >= v);
+        }
+        vec2 r = shared::sylva_ikd_node_range(0x8000u | (0xC000u << 16));
+        CHECK(shared::sylva_ikd_word_holds(0x8000u | (0xC000u << 16), at_most, below) ==
+              shared::sylva_ikd_holds(vec4(v, 0, 0, 0), 1u, r.x, r.y));
+    }
+    CHECK(wrong_lo == 0);
+    CHECK(wrong_hi == 0);
+}
+
 TEST_CASE("ikd iterator: the candidate cells of brute force, front to back, same intervals", "[ikd]") {
     std::mt19937 rng(42);
     std::uniform_real_distribution<float> iso(0.15f, 0.75f);

@@ -68,6 +68,72 @@ struct PacketCell {
     vec4 corners_lo{0.0f}, corners_hi{0.0f};
 };
 
+namespace detail {
+
+/// Four lanes of floats and the few operations the packet traversal needs, written once over
+/// SSE2 (x86) or a plain loop (-DSYLVA_IKD_PACKET_NO_SSE). Each operation is the scalar one lane
+/// by lane, so both give the same bits: min4(a, b) = a < b ? a : b (sylva_min(b, a)), max4(a, b)
+/// = a > b ? a : b (sylva_max(b, a)), canon4 = sylva_canon.
+#ifdef SYLVA_IKD_PACKET_SSE
+using F4 = __m128;  ///< four floats
+using M4 = __m128;  ///< four lane masks (all bits set or clear)
+inline F4 load4(const float* p) { return _mm_load_ps(p); }
+inline void store4(float* p, F4 a) { _mm_store_ps(p, a); }
+inline F4 set4(float v) { return _mm_set1_ps(v); }
+inline F4 sub4(F4 a, F4 b) { return _mm_sub_ps(a, b); }
+inline F4 mul4(F4 a, F4 b) { return _mm_mul_ps(a, b); }
+inline F4 min4(F4 a, F4 b) { return _mm_min_ps(a, b); }
+inline F4 max4(F4 a, F4 b) { return _mm_max_ps(a, b); }
+inline M4 lt4(F4 a, F4 b) { return _mm_cmplt_ps(a, b); }
+inline M4 gt4(F4 a, F4 b) { return _mm_cmpgt_ps(a, b); }
+inline M4 and4(M4 a, M4 b) { return _mm_and_ps(a, b); }
+inline F4 select4(M4 m, F4 a, F4 b) { return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b)); }
+inline std::uint32_t le_bits4(F4 a, F4 b) { return static_cast<std::uint32_t>(_mm_movemask_ps(_mm_cmple_ps(a, b))); }
+inline F4 canon4(F4 a) {
+    __m128i b = _mm_castps_si128(a);
+    return _mm_castsi128_ps(_mm_andnot_si128(_mm_cmpeq_epi32(b, _mm_set1_epi32(static_cast<int>(0x80000000u))), b));
+}
+inline M4 mask_of4(const std::int32_t* p) { return _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(p))); }
+#else
+struct F4 {
+    float v[kPacketLanes];
+};
+using M4 = F4;  // lanes hold 0 or 1
+template <class Op>
+inline F4 map4(F4 a, F4 b, Op op) {
+    F4 r;
+    for (int k = 0; k < kPacketLanes; ++k) r.v[k] = op(a.v[k], b.v[k]);
+    return r;
+}
+inline F4 load4(const float* p) { return {{p[0], p[1], p[2], p[3]}}; }
+inline void store4(float* p, F4 a) { std::copy(a.v, a.v + kPacketLanes, p); }
+inline F4 set4(float v) { return {{v, v, v, v}}; }
+inline F4 sub4(F4 a, F4 b) { return map4(a, b, [](float x, float y) { return x - y; }); }
+inline F4 mul4(F4 a, F4 b) { return map4(a, b, [](float x, float y) { return x * y; }); }
+inline F4 min4(F4 a, F4 b) { return map4(a, b, [](float x, float y) { return x < y ? x : y; }); }
+inline F4 max4(F4 a, F4 b) { return map4(a, b, [](float x, float y) { return x > y ? x : y; }); }
+inline M4 lt4(F4 a, F4 b) { return map4(a, b, [](float x, float y) { return x < y ? 1.0f : 0.0f; }); }
+inline M4 gt4(F4 a, F4 b) { return map4(a, b, [](float x, float y) { return x > y ? 1.0f : 0.0f; }); }
+inline M4 and4(M4 a, M4 b) { return map4(a, b, [](float x, float y) { return x * y; }); }
+inline F4 select4(M4 m, F4 a, F4 b) {
+    F4 r;
+    for (int k = 0; k < kPacketLanes; ++k) r.v[k] = m.v[k] != 0.0f ? a.v[k] : b.v[k];
+    return r;
+}
+inline std::uint32_t le_bits4(F4 a, F4 b) {
+    std::uint32_t m = 0;
+    for (int k = 0; k < kPacketLanes; ++k) m |= (a.v[k] <= b.v[k] ? 1u : 0u) << k;
+    return m;
+}
+inline F4 canon4(F4 a) {
+    for (float& x : a.v) x = shared::sylva_canon(x);
+    return a;
+}
+inline M4 mask_of4(const std::int32_t* p) { return {{p[0] ? 1.0f : 0.0f, p[1] ? 1.0f : 0.0f, p[2] ? 1.0f : 0.0f, p[3] ? 1.0f : 0.0f}}; }
+#endif
+
+}  // namespace detail
+
 /// The packet iterator (see the top of this header).
 class PacketIter {
 public:
@@ -88,33 +154,36 @@ public:
         : words_{words.data(), words.size()}, grid_{grid.data(), grid.size()}, hdr_(hdr), isos_(isos),
           iso_count_(iso_count) {
         if (!same_signs(p)) throw Error("ikd::PacketIter: the rays' direction signs differ");
+        shared::sylva_ikd_iso_codes(isos, std::min(iso_count, 4u), at_most_, below_);
         if (hdr_.valid == 0u) {
             status_ = SYLVA_ITER_ERROR;
             return;
         }
-        Entry root;
+        std::uint32_t mask = 0;
+        alignas(16) float t_in[kPacketLanes] = {}, t_out[kPacketLanes] = {};
         for (int k = 0; k < kPacketLanes; ++k) {
             limit_[k] = p.t_max[k];
             if (!(p.active >> k & 1u)) continue;
+            vec3 org, rcp;
+            glm::u32vec3 par;
             bool nan = shared::sylva_ray_to_grid(p.origin[k], p.direction[k], hdr_.origin, hdr_.inv_spacing, p.t_min[k],
-                                                 p.t_max[k], org_[k], rcp_[k], par_[k]);
-            vec2 t = shared::sylva_ikd_box_interval(org_[k], rcp_[k], par_[k], hdr_.cells, glm::u32vec3(0), hdr_.lg,
-                                                    p.t_min[k], p.t_max[k]);
+                                                 p.t_max[k], org, rcp, par);
+            vec2 t = shared::sylva_ikd_box_interval(org, rcp, par, hdr_.cells, glm::u32vec3(0), hdr_.lg,
+                                                    shared::sylva_canon(p.t_min[k]), shared::sylva_canon(p.t_max[k]));
             if (!nan && iso_count > 0 && t.x <= t.y) {
-                root.mask |= 1u << k;
-                root.t_in[k] = t.x;
-                root.t_out[k] = t.y;
+                mask |= 1u << k;
+                t_in[k] = t.x;
+                t_out[k] = t.y;
             }
-            lower_first_ = {std::signbit(rcp_[k].x) ? 0u : 1u, std::signbit(rcp_[k].y) ? 0u : 1u,
-                            std::signbit(rcp_[k].z) ? 0u : 1u};
+            lower_first_ = {std::signbit(rcp.x) ? 0u : 1u, std::signbit(rcp.y) ? 0u : 1u, std::signbit(rcp.z) ? 0u : 1u};
             for (int a = 0; a < 3; ++a) {
-                lanes_.o[a][k] = org_[k][a];
-                lanes_.r[a][k] = rcp_[k][a];
-                lanes_.par[a][k] = par_[k][a] ? -1 : 0;
+                lanes_.o[a][k] = org[a];
+                lanes_.r[a][k] = rcp[a];
+                lanes_.par[a][k] = par[a] ? -1 : 0;
             }
         }
-        if (root.mask) stack_[sp_++] = root;
-        // (the root goes through pop() like every subtree, so its lanes see their limits)
+        // The root goes through pop() like every subtree, so its lanes see their limits.
+        if (mask) push(glm::u32vec3(0u), 0u, mask, detail::load4(t_in), detail::load4(t_out));
     }
 
     /// Ends lane k's traversal beyond t (its cells entered after t are no longer reported).
@@ -122,24 +191,26 @@ public:
 
     /// The next candidate cell of any lane; false when the traversal is over. As in the
     /// single-ray iterator, clip() limits act on the subtrees taken from the stack; the near
-    /// child of a node is visited next without a stack round trip.
+    /// child of a node is visited next without a stack round trip. The node being visited
+    /// lives in locals (registers) and the stack holds the lanes' intervals as float4 rows.
     bool next(PacketCell& out) {
+        Node n{};
+        bool have = false;  // n holds the near child of the last node split
         while (status_ == SYLVA_ITER_RUNNING) {
-            if (!have_ && !pop()) break;
-            have_ = false;
+            if (!have && !pop(n)) break;
+            have = false;
             ++steps_;
-            lane_steps_ += static_cast<std::uint32_t>(std::popcount(cur_.mask));
-            if (cur_.level >= hdr_.levels) {
-                if (cell(cur_, out)) return true;
+            lane_steps_ += kLaneCount[n.mask & 15u];
+            if (n.level >= hdr_.levels) {
+                if (cell(n, out)) return true;
                 continue;
             }
-            std::uint32_t entry = shared::sylva_ikd_level_entry(words_, cur_.level);
-            if (cur_.level < hdr_.stored) {
-                std::uint32_t i = shared::sylva_ikd_node_index(words_, hdr_.cells, cur_.level, entry, cur_.node);
-                vec2 r = shared::sylva_ikd_node_range(words_[hdr_.nodes_at + i]);
-                if (!shared::sylva_ikd_holds(isos_, iso_count_, r.x, r.y)) continue;  // culled for every lane
+            std::uint32_t entry = shared::sylva_ikd_level_entry(words_, n.level);
+            if (n.level < hdr_.stored) {
+                std::uint32_t i = shared::sylva_ikd_node_index(words_, hdr_.cells, n.level, entry, n.node);
+                if (!shared::sylva_ikd_word_holds(words_[hdr_.nodes_at + i], at_most_, below_)) continue;  // culled for every lane
             }
-            descend(entry);
+            have = descend(n, entry);
         }
         if (status_ == SYLVA_ITER_RUNNING) status_ = SYLVA_ITER_DONE;
         return false;
@@ -154,109 +225,100 @@ public:
     [[nodiscard]] std::uint32_t status() const { return status_; }
 
 private:
-    struct Entry {
-        glm::u32vec3 node{0};
-        std::uint32_t level = 0, mask = 0;
-        std::array<float, kPacketLanes> t_in{}, t_out{};
+    /// A subtree being visited: its first cell, level, lanes and the lanes' intervals.
+    struct Node {
+        glm::u32vec3 node;
+        std::uint32_t level, mask;
+        detail::F4 t_in, t_out;
     };
+    /// Set bits of a 4-bit mask (std::popcount is a library call without -mpopcnt).
+    static constexpr std::uint8_t kLaneCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+    static constexpr std::size_t kStack = 2 * SYLVA_IKD_MAX_LEVELS + 2;
 
-    /// Reports f's cell when its corners hold an isovalue.
-    bool cell(const Entry& f, PacketCell& out) {
-        shared::sylva_ikd_corners(grid_, hdr_.cells, f.node, out.corners_lo, out.corners_hi);
+    /// Reports n's cell when its corners hold an isovalue.
+    bool cell(const Node& n, PacketCell& out) {
+        shared::sylva_ikd_corners(grid_, hdr_.cells, n.node, out.corners_lo, out.corners_hi);
         if (!shared::sylva_ikd_corners_hold(out.corners_lo, out.corners_hi, isos_, iso_count_)) return false;
-        out.cell = f.node;
-        out.mask = f.mask;
-        out.t0 = f.t_in;
-        out.t1 = f.t_out;
+        out.cell = n.node;
+        out.mask = n.mask;
+        alignas(16) float t0[kPacketLanes], t1[kPacketLanes];
+        detail::store4(t0, n.t_in);
+        detail::store4(t1, n.t_out);
+        std::copy(t0, t0 + kPacketLanes, out.t0.begin());
+        std::copy(t1, t1 + kPacketLanes, out.t1.begin());
         return true;
     }
 
-    /// Takes the next subtree from the stack into cur_, its lanes clipped to their limits (lanes
+    void push(glm::u32vec3 node, std::uint32_t level, std::uint32_t mask, detail::F4 t_in, detail::F4 t_out) {
+        if (sp_ >= kStack) {  // unreachable: depth <= 48 levels, one far child each
+            status_ = SYLVA_ITER_ERROR;
+            return;
+        }
+        st_xy_[sp_] = node.x | node.y << 16;
+        st_zl_[sp_] = node.z | level << 16;
+        st_mask_[sp_] = mask;
+        detail::store4(st_in_[sp_], t_in);
+        detail::store4(st_out_[sp_], t_out);
+        ++sp_;
+    }
+
+    /// Takes the next subtree from the stack into n, its lanes clipped to their limits (lanes
     /// whose interval starts after their limit drop out); false when the stack is empty.
-    bool pop() {
+    bool pop(Node& n) {
+        detail::F4 lim = detail::load4(limit_.data());
         while (sp_ > 0) {
-            cur_ = stack_[--sp_];
-            for (int k = 0; k < kPacketLanes; ++k) {
-                if (!(cur_.mask >> k & 1u)) continue;
-                if (!(cur_.t_in[k] <= limit_[k])) cur_.mask &= ~(1u << k);
-                else cur_.t_out[k] = std::min(cur_.t_out[k], limit_[k]);
-            }
-            if (cur_.mask) return true;
+            --sp_;
+            n.t_in = detail::load4(st_in_[sp_]);
+            n.mask = st_mask_[sp_] & detail::le_bits4(n.t_in, lim);
+            if (!n.mask) continue;
+            n.t_out = detail::min4(lim, detail::load4(st_out_[sp_]));  // std::min(t_out, limit)
+            n.node = glm::u32vec3(st_xy_[sp_] & 0xFFFFu, st_xy_[sp_] >> 16, st_zl_[sp_] & 0xFFFFu);
+            n.level = st_zl_[sp_] >> 16;
+            return true;
         }
         return false;
     }
 
-    /// Splits cur_: continues with the near child any lane enters and pushes the far one.
-    void descend(std::uint32_t entry) {
-        const Entry f = cur_;
+    /// Splits n along its level's axis: n becomes the near child any lane enters (returns
+    /// false when no lane enters either), the far one is pushed. Each lane's child intervals are its interval cut at the split plane
+    /// (sylva_ikd_split_intervals, the single-ray arithmetic); when the upper child is virtual
+    /// the lower one is n's real part and keeps n's lanes and intervals.
+    bool descend(Node& n, std::uint32_t entry) {
+        using namespace detail;
         std::uint32_t axis = entry & 3u;
-        glm::u32vec3 w = shared::sylva_ikd_level_widths(entry), cw = w;
-        cw[axis] -= 1;
-        glm::u32vec3 up = f.node;
-        up[axis] += 1u << cw[axis];
-        bool up_real = up[axis] < hdr_.cells[axis];
-        Entry lo{f.node, f.level + 1, 0, {}, {}}, hi{up, f.level + 1, 0, {}, {}};
-        intervals(f, f.node, cw, lo);
-        if (up_real) intervals(f, up, cw, hi);
+        std::uint32_t split = n.node[axis] + (1u << (shared::sylva_ikd_bits5(entry, 8u + 8u * axis) - 1u));
+        n.level += 1;
+        if (split >= hdr_.cells[axis]) return true;
+        F4 o = load4(lanes_.o[axis]), s = set4(static_cast<float>(split));
+        M4 par = mask_of4(lanes_.par[axis]);
+        F4 ts = canon4(mul4(sub4(s, o), load4(lanes_.r[axis])));
+        // sylva_min(t_out, ts) = min4(ts, t_out); sylva_max(t_in, ts) = max4(ts, t_in).
+        F4 cut_out = min4(ts, n.t_out), cut_in = max4(ts, n.t_in);
         bool lower_first = lower_first_[axis] != 0u;
-        const Entry& near = lower_first ? lo : hi;
-        const Entry& far = lower_first ? hi : lo;
-        if (sp_ + 2 > stack_.size()) {  // unreachable: depth <= 48 levels, one far child each
-            status_ = SYLVA_ITER_ERROR;
-            return;
+        F4 lo_in = lower_first ? n.t_in : cut_in, lo_out = lower_first ? cut_out : n.t_out;
+        F4 up_in = lower_first ? cut_in : n.t_in, up_out = lower_first ? n.t_out : cut_out;
+        // Lanes parallel to the axis keep their interval on the side(s) of the plane they lie on.
+        const F4 inf = set4(shared::sylva_inf()), ninf = set4(-shared::sylva_inf());
+        M4 lo_gone = and4(par, gt4(o, s)), up_gone = and4(par, lt4(o, s));
+        lo_in = select4(lo_gone, inf, select4(par, n.t_in, lo_in));
+        lo_out = select4(lo_gone, ninf, select4(par, n.t_out, lo_out));
+        up_in = select4(up_gone, inf, select4(par, n.t_in, up_in));
+        up_out = select4(up_gone, ninf, select4(par, n.t_out, up_out));
+        std::uint32_t lo_mask = le_bits4(lo_in, lo_out) & n.mask, up_mask = le_bits4(up_in, up_out) & n.mask;
+        glm::u32vec3 up_node = n.node;
+        up_node[axis] = split;
+        std::uint32_t near_mask = lower_first ? lo_mask : up_mask, far_mask = lower_first ? up_mask : lo_mask;
+        if (near_mask && far_mask) {
+            if (lower_first) push(up_node, n.level, up_mask, up_in, up_out);
+            else push(n.node, n.level, lo_mask, lo_in, lo_out);
         }
-        if (far.mask && near.mask) {
-            stack_[sp_++] = far;
-            cur_ = near;
-        } else {
-            cur_ = near.mask ? near : far;  // one child, or none (then have_ stays false)
-        }
-        have_ = cur_.mask != 0;
-    }
-
-    /// The lanes' intervals (within f's) in the real part of the box of width 2^w cells at o:
-    /// sylva_ikd_box_interval for each lane of f.mask; fills out's mask, t_in and t_out.
-    void intervals(const Entry& f, glm::u32vec3 o, glm::u32vec3 w, Entry& out) const {
-        glm::u32vec3 c = hdr_.cells;
-        float lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = static_cast<float>(o[a]);
-            hi[a] = static_cast<float>(std::min(o[a] + (1u << w[a]), c[a]));
-        }
-#ifdef SYLVA_IKD_PACKET_SSE
-        const __m128 inf = _mm_set1_ps(shared::sylva_inf()), ninf = _mm_set1_ps(-shared::sylva_inf());
-        const __m128i negzero = _mm_set1_epi32(static_cast<int>(0x80000000u));
-        auto canon = [&](__m128 x) {  // sylva_canon: -0 -> +0 by bits
-            __m128i b = _mm_castps_si128(x);
-            return _mm_castsi128_ps(_mm_andnot_si128(_mm_cmpeq_epi32(b, negzero), b));
-        };
-        __m128 ta_acc = _mm_loadu_ps(f.t_in.data()), tb_acc = _mm_loadu_ps(f.t_out.data());
-        for (int a = 0; a < 3; ++a) {
-            __m128 o4 = _mm_load_ps(lanes_.o[a]), r4 = _mm_load_ps(lanes_.r[a]);
-            __m128 par = _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(lanes_.par[a])));
-            __m128 l = _mm_set1_ps(lo[a]), h = _mm_set1_ps(hi[a]);
-            __m128 ta = canon(_mm_mul_ps(_mm_sub_ps(l, o4), r4)), tb = canon(_mm_mul_ps(_mm_sub_ps(h, o4), r4));
-            // sylva_max(acc, sylva_min(ta, tb)) and sylva_min(acc, sylva_max(ta, tb)): minps/maxps
-            // return their second operand on ties and NaN, as sylva_min/max return their first.
-            __m128 na = _mm_max_ps(_mm_min_ps(tb, ta), ta_acc), nb = _mm_min_ps(_mm_max_ps(tb, ta), tb_acc);
-            __m128 outside = _mm_and_ps(par, _mm_or_ps(_mm_cmplt_ps(o4, l), _mm_cmpgt_ps(o4, h)));
-            ta_acc = _mm_or_ps(_mm_andnot_ps(par, na), _mm_and_ps(par, ta_acc));  // parallel: unchanged...
-            tb_acc = _mm_or_ps(_mm_andnot_ps(par, nb), _mm_and_ps(par, tb_acc));
-            ta_acc = _mm_or_ps(_mm_andnot_ps(outside, ta_acc), _mm_and_ps(outside, inf));  // ...or empty
-            tb_acc = _mm_or_ps(_mm_andnot_ps(outside, tb_acc), _mm_and_ps(outside, ninf));
-        }
-        int hit = _mm_movemask_ps(_mm_cmple_ps(ta_acc, tb_acc)) & static_cast<int>(f.mask);
-        out.mask = static_cast<std::uint32_t>(hit);
-        _mm_storeu_ps(out.t_in.data(), ta_acc);
-        _mm_storeu_ps(out.t_out.data(), tb_acc);
-#else
-        for (int k = 0; k < kPacketLanes; ++k) {
-            if (!(f.mask >> k & 1u)) continue;
-            vec2 t = shared::sylva_kd_box_interval_f(org_[k], rcp_[k], par_[k], vec3(lo[0], lo[1], lo[2]),
-                                                     vec3(hi[0], hi[1], hi[2]), f.t_in[k], f.t_out[k]);
-            if (t.x <= t.y) out.mask |= 1u << k, out.t_in[k] = t.x, out.t_out[k] = t.y;
-        }
-#endif
+        bool go_lower = lo_mask && (lower_first || !up_mask);
+        if (!go_lower && !up_mask) return false;  // no lane enters either child
+        if (!go_lower) n.node = up_node;
+        n.mask = go_lower ? lo_mask : up_mask;
+        n.t_in = go_lower ? lo_in : up_in;
+        n.t_out = go_lower ? lo_out : up_out;
+        return true;
     }
 
     /// The lanes' rays, structure of arrays: origin, reciprocal direction, parallel masks (-1).
@@ -270,15 +332,16 @@ private:
     shared::SylvaIkdHeader hdr_{};
     vec4 isos_;
     std::uint32_t iso_count_;
-    std::array<vec3, kPacketLanes> org_{}, rcp_{};
-    std::array<glm::u32vec3, kPacketLanes> par_{};
+    glm::u32vec4 at_most_{0u}, below_{0u};  ///< the isovalues as node-word code bounds
     Lanes lanes_;
-    std::array<float, kPacketLanes> limit_{};
+    alignas(16) std::array<float, kPacketLanes> limit_{};
     glm::u32vec3 lower_first_{1u};
-    std::array<Entry, 2 * SYLVA_IKD_MAX_LEVELS + 2> stack_{};
+    // The stack, rows below sp_ set before use (not cleared for every packet): packed first cell
+    // (x | y << 16, z | level << 16, as the single-ray stack), lanes and intervals.
+    std::uint32_t st_xy_[kStack], st_zl_[kStack], st_mask_[kStack];
+    alignas(16) float st_in_[kStack][kPacketLanes];
+    alignas(16) float st_out_[kStack][kPacketLanes];
     std::size_t sp_ = 0;
-    Entry cur_{};
-    bool have_ = false;
     std::uint32_t steps_ = 0, lane_steps_ = 0, status_ = SYLVA_ITER_RUNNING;
 };
 

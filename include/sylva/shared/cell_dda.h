@@ -54,8 +54,8 @@ SYLVA_FN void sylva_dda_begin(SYLVA_OUT(SylvaDdaIter) it, SylvaIkdHeader hdr, ve
     it.hdr = hdr;
     it.isos = isos;
     it.iso_count = (iso_count < 4u) ? iso_count : 4u;
-    it.t_min = t_min;
-    it.t_max = t_max;
+    it.t_min = sylva_canon(t_min);  // as sylva_ikd_begin: no signed zero among the bounds
+    it.t_max = sylva_canon(t_max);
     it.t_limit = t_max;
     it.cell = ivec3(0, 0, 0);
     it.dir_step = ivec3(0, 0, 0);
@@ -77,7 +77,7 @@ SYLVA_FN void sylva_dda_begin(SYLVA_OUT(SylvaDdaIter) it, SylvaIkdHeader hdr, ve
                   direction.z * it.hdr.inv_spacing.z);
     uvec3 c = it.hdr.cells;
     vec2 t = sylva_kd_box_interval_f(it.org, it.rcp, it.parallel, vec3(0.0f, 0.0f, 0.0f),
-                                     vec3(float(c.x), float(c.y), float(c.z)), t_min, t_max);
+                                     vec3(float(c.x), float(c.y), float(c.z)), it.t_min, it.t_max);
     if (nan_ray || it.iso_count == 0u || !(t.x <= t.y)) {
         it.status = SYLVA_ITER_DONE;
         return;

@@ -59,6 +59,8 @@ struct SylvaIkdIter {
     uvec3 parallel;  ///< 1 where the ray is parallel to an axis
     vec4 isos;       ///< the isovalues (normalised densities); the first iso_count count
     uint iso_count;
+    uvec4 iso_at_most;  ///< the isovalues as node-word code bounds (sylva_ikd_iso_codes)
+    uvec4 iso_below;
     float t_limit;  ///< subtrees entered after this are pruned (sylva_ikd_clip)
     uvec3 node;     ///< first cell of the node to visit next
     uint level;     ///< its level; SYLVA_IKD_NO_NODE: pop the stack
@@ -91,6 +93,51 @@ SYLVA_FN bool sylva_ikd_holds(vec4 isos, uint count, float lo, float hi) {
     return found;
 }
 
+/// Number of unorm16 codes q whose density float(q) / 65535 (sylva_ikd_node_range) is <= v:
+/// 0 .. 65536, 0 for a NaN v. That density grows with q, so the codes <= v are 0 .. count - 1.
+SYLVA_FN uint sylva_ikd_codes_at_most(float v) {
+    if (!(v >= 0.0f)) return 0u;  // NaN or below code 0's density
+    if (v >= 1.0f) return 65536u;
+    uint q = uint(v * 65535.0f);  // within a code or two of the answer; the loops settle it
+    while (q > 0u && float(q) / 65535.0f > v) q = q - 1u;
+    while (q < 65535u && float(q + 1u) / 65535.0f <= v) q = q + 1u;
+    return (float(q) / 65535.0f <= v) ? q + 1u : q;
+}
+
+/// The first unorm16 code whose density is >= v: 0 .. 65535, or 65536 when there is none (v > 1
+/// or NaN). Below 65536 it is the number of codes whose density is < v.
+SYLVA_FN uint sylva_ikd_codes_below(float v) {
+    if (v <= 0.0f) return 0u;
+    if (!(v > 0.0f)) return 65536u;  // NaN
+    if (v > 1.0f) return 65536u;
+    uint q = uint(v * 65535.0f);
+    while (q > 0u && float(q) / 65535.0f >= v) q = q - 1u;
+    while (q < 65535u && float(q + 1u) / 65535.0f < v) q = q + 1u;
+    return (float(q) / 65535.0f < v) ? q + 1u : q;
+}
+
+/// The isovalues as unorm16 code bounds, so that a node word is tested without converting it:
+/// iso k lies in node_range(word) exactly when (word & 0xFFFF) < at_most[k] and word >> 16 >=
+/// below[k] (the float test of sylva_ikd_holds, decided in integers: same culling, bit for bit).
+/// Isovalues from `count` on get at_most = 0 and never match.
+SYLVA_FN void sylva_ikd_iso_codes(vec4 isos, uint count, SYLVA_OUT(uvec4) at_most, SYLVA_OUT(uvec4) below) {
+    at_most = uvec4(0u, 0u, 0u, 0u);
+    below = uvec4(0u, 0u, 0u, 0u);
+    if (count > 0u) { at_most.x = sylva_ikd_codes_at_most(isos.x); below.x = sylva_ikd_codes_below(isos.x); }
+    if (count > 1u) { at_most.y = sylva_ikd_codes_at_most(isos.y); below.y = sylva_ikd_codes_below(isos.y); }
+    if (count > 2u) { at_most.z = sylva_ikd_codes_at_most(isos.z); below.z = sylva_ikd_codes_below(isos.z); }
+    if (count > 3u) { at_most.w = sylva_ikd_codes_at_most(isos.w); below.w = sylva_ikd_codes_below(isos.w); }
+}
+
+/// True when node word `word` (unorm16 min | max << 16) holds one of the isovalues whose code
+/// bounds sylva_ikd_iso_codes gave.
+SYLVA_FN bool sylva_ikd_word_holds(uint word, uvec4 at_most, uvec4 below) {
+    uint lo = word & 0xFFFFu;
+    uint hi = word >> 16u;
+    return (lo < at_most.x && hi >= below.x) || (lo < at_most.y && hi >= below.y) ||
+           (lo < at_most.z && hi >= below.z) || (lo < at_most.w && hi >= below.w);
+}
+
 /// Ray interval (within [t0, t1]) in the real part of the box of the node of width 2^w cells
 /// starting at cell o: [o, min(o + 2^w, C)] for C = `cells`.
 SYLVA_FN vec2 sylva_ikd_box_interval(vec3 org, vec3 rcp, uvec3 par, uvec3 cells, uvec3 o, uvec3 w, float t0, float t1) {
@@ -107,6 +154,7 @@ SYLVA_FN void sylva_ikd_begin(SYLVA_OUT(SylvaIkdIter) it, SylvaIkdHeader hdr, ve
     it.hdr = hdr;
     it.isos = isos;
     it.iso_count = (iso_count < 4u) ? iso_count : 4u;
+    sylva_ikd_iso_codes(isos, it.iso_count, it.iso_at_most, it.iso_below);
     it.sp = 0u;
     it.steps = 0u;
     it.level = SYLVA_IKD_NO_NODE;
@@ -131,7 +179,9 @@ SYLVA_FN void sylva_ikd_begin(SYLVA_OUT(SylvaIkdIter) it, SylvaIkdHeader hdr, ve
         it.status = SYLVA_ITER_DONE;
         return;
     }
-    vec2 t = sylva_ikd_box_interval(it.org, it.rcp, it.parallel, it.hdr.cells, uvec3(0u, 0u, 0u), it.hdr.lg, t_min, t_max);
+    // No signed zero among the interval's bounds (sylva_ikd_split_intervals relies on it).
+    vec2 t = sylva_ikd_box_interval(it.org, it.rcp, it.parallel, it.hdr.cells, uvec3(0u, 0u, 0u), it.hdr.lg,
+                                    sylva_canon(t_min), sylva_canon(t_max));
     if (t.x <= t.y) {
         it.level = 0u;
         it.t_in = t.x;
@@ -179,39 +229,76 @@ SYLVA_FN bool sylva_ikd_pop(SYLVA_INOUT(SylvaIkdIter) it) {
     return false;
 }
 
+/// The children's intervals from the parent's [t_in, t_out] and the one plane that splits it
+/// (Wald et al. 3.2): the child boxes share every slab of the parent's but the split axis's, so
+/// a child's interval is the parent's cut at the split plane's t, ts = canon((s - o) * r), the
+/// value sylva_kd_box_interval_f would compute for that plane. Without signed zeros or NaNs
+/// (sylva_ikd_begin canonicalises t_min and t_max; products are canonical and never NaN) the
+/// min and max of a set of floats do not depend on the order, and rounding is monotonic, so the
+/// result equals the slab test of the child's own box, bit for bit: the cell intervals stay those
+/// of sylva/shared/cell_dda.h. Returns (lower.t0, lower.t1, upper.t0, upper.t1); a ray parallel
+/// to the axis keeps the parent's interval on the side(s) of the plane its origin lies on.
+SYLVA_FN vec4 sylva_ikd_split_intervals(float o, float r, uint par, float s, float t_in, float t_out) {
+    vec4 t = vec4(t_in, t_out, t_in, t_out);
+    if (par != 0u) {
+        if (o > s) {
+            t.x = sylva_inf();
+            t.y = -sylva_inf();
+        }
+        if (o < s) {
+            t.z = sylva_inf();
+            t.w = -sylva_inf();
+        }
+        return t;
+    }
+    float ts = sylva_canon((s - o) * r);
+    if ((floatBitsToUint(r) & 0x80000000u) == 0u) {  // lower child first: it ends at ts
+        t.y = sylva_min(t_out, ts);
+        t.z = sylva_max(t_in, ts);
+    } else {  // upper child first: it ends at ts
+        t.x = sylva_max(t_in, ts);
+        t.w = sylva_min(t_out, ts);
+    }
+    return t;
+}
+
 /// Splits the current node (table entry `entry`) along its axis: continues with the near child
 /// the ray hits and pushes the far one when both are hit. A child starting at or beyond the
-/// real cells is virtual and skipped.
+/// real cells is virtual and skipped; when the upper child is virtual the lower one is the
+/// parent's real part and keeps its interval.
 SYLVA_FN void sylva_ikd_descend(SYLVA_INOUT(SylvaIkdIter) it, uint entry) {
     uint axis = entry & 3u;
     uvec3 w = sylva_ikd_level_widths(entry);
-    uvec3 cw = uvec3((axis == 0u) ? w.x - 1u : w.x, (axis == 1u) ? w.y - 1u : w.y, (axis == 2u) ? w.z - 1u : w.z);
-    uint half_w = 1u << sylva_kd_pick_u(cw, axis);
+    uint half_w = 1u << (sylva_kd_pick_u(w, axis) - 1u);
     uvec3 lo = it.node;
-    uvec3 up = uvec3((axis == 0u) ? lo.x + half_w : lo.x, (axis == 1u) ? lo.y + half_w : lo.y,
-                     (axis == 2u) ? lo.z + half_w : lo.z);
+    uint split = sylva_kd_pick_u(lo, axis) + half_w;
+    uvec3 up = uvec3((axis == 0u) ? split : lo.x, (axis == 1u) ? split : lo.y, (axis == 2u) ? split : lo.z);
     uint child_level = it.level + 1u;
-    vec2 tl = sylva_ikd_box_interval(it.org, it.rcp, it.parallel, it.hdr.cells, lo, cw, it.t_in, it.t_out);
-    vec2 tu = sylva_ikd_box_interval(it.org, it.rcp, it.parallel, it.hdr.cells, up, cw, it.t_in, it.t_out);
-    bool hit_l = tl.x <= tl.y;
-    bool hit_u = sylva_kd_pick_u(up, axis) < sylva_kd_pick_u(it.hdr.cells, axis) && tu.x <= tu.y;
+    bool up_real = split < sylva_kd_pick_u(it.hdr.cells, axis);
+    vec4 t = vec4(it.t_in, it.t_out, sylva_inf(), -sylva_inf());
+    if (up_real) {
+        t = sylva_ikd_split_intervals(sylva_kd_pick(it.org, axis), sylva_kd_pick(it.rcp, axis),
+                                      sylva_kd_pick_u(it.parallel, axis), float(split), it.t_in, it.t_out);
+    }
+    bool hit_l = t.x <= t.y;
+    bool hit_u = t.z <= t.w;
     bool lower_first = (floatBitsToUint(sylva_kd_pick(it.rcp, axis)) & 0x80000000u) == 0u;
     if (hit_l && hit_u) {
         if (lower_first) {
-            sylva_ikd_push(it, up, child_level, tu);
+            sylva_ikd_push(it, up, child_level, vec2(t.z, t.w));
         } else {
-            sylva_ikd_push(it, lo, child_level, tl);
+            sylva_ikd_push(it, lo, child_level, vec2(t.x, t.y));
         }
     }
     it.level = child_level;
     if (hit_l && (lower_first || !hit_u)) {
         it.node = lo;
-        it.t_in = tl.x;
-        it.t_out = tl.y;
+        it.t_in = t.x;
+        it.t_out = t.y;
     } else if (hit_u) {
         it.node = up;
-        it.t_in = tu.x;
-        it.t_out = tu.y;
+        it.t_in = t.z;
+        it.t_out = t.w;
     } else {
         it.level = SYLVA_IKD_NO_NODE;
     }
@@ -265,8 +352,7 @@ SYLVA_FN bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYL
         uint entry = sylva_ikd_level_entry(SYLVA_PASS_BUF(words), it.level);
         if (it.level < it.hdr.stored) {  // below: a brick's levels, not stored, never culled
             uint index = sylva_ikd_node_index(SYLVA_PASS_BUF(words), it.hdr.cells, it.level, entry, it.node);
-            vec2 range = sylva_ikd_node_range(SYLVA_LOAD(words, it.hdr.nodes_at + index));
-            if (!sylva_ikd_holds(it.isos, it.iso_count, range.x, range.y)) {
+            if (!sylva_ikd_word_holds(SYLVA_LOAD(words, it.hdr.nodes_at + index), it.iso_at_most, it.iso_below)) {
                 it.level = SYLVA_IKD_NO_NODE;  // culled with its subtree (section 4.1)
                 continue;
             }
