@@ -171,11 +171,13 @@ inline std::uint32_t level_count(volume::Dims d, std::uint32_t b) {
 
 /// One level of the LoD pyramid: level s has ceil(dims / 2^s) coarse voxels per axis, each the
 /// mean of the full-resolution voxels it covers.
+/// Level 0 reads the grid's own values (no copy).
 struct LodLevel {
     volume::Dims dims{0};
-    std::vector<float> values;
+    std::vector<float> values;     ///< levels >= 1
+    const float* data = nullptr;   ///< values.data(), or the grid's values at level 0
     [[nodiscard]] float at(std::uint32_t x, std::uint32_t y, std::uint32_t z) const {
-        return values[volume::voxel_index(dims, x, y, z)];
+        return data[volume::voxel_index(dims, x, y, z)];
     }
 };
 
@@ -188,8 +190,9 @@ inline std::uint32_t covered(std::uint32_t i, std::uint32_t s, std::uint32_t n) 
 /// each fine voxel covers, accumulated in double.
 template <Executor X>
 LodLevel downsample(const LodLevel& fine, std::uint32_t s, volume::Dims full, X& exec) {
-    LodLevel out{(fine.dims + 1u) / 2u, {}};
+    LodLevel out{(fine.dims + 1u) / 2u, {}, nullptr};
     out.values.resize(volume::voxel_count(out.dims));
+    out.data = out.values.data();
     exec.parallel_for(0, out.dims.z, 1, [&](std::size_t z0, std::size_t z1) {
         for (std::uint32_t z = std::uint32_t(z0); z < z1; ++z)
             for (std::uint32_t y = 0; y < out.dims.y; ++y)
@@ -213,7 +216,8 @@ LodLevel downsample(const LodLevel& fine, std::uint32_t s, volume::Dims full, X&
 template <Executor X>
 std::vector<LodLevel> lod_pyramid(const volume::DensityGrid& g, std::uint32_t levels, X& exec) {
     std::vector<LodLevel> lod;
-    lod.push_back({g.dims, g.values});
+    lod.reserve(levels);
+    lod.push_back({g.dims, {}, g.values.data()});
     for (std::uint32_t s = 1; s < levels; ++s) lod.push_back(downsample(lod.back(), s, g.dims, exec));
     return lod;
 }
