@@ -5,6 +5,22 @@
 //   * speed (Fig. 7, Table I): rays/s, traversal steps, cells intersected and hits per ray, at
 //     one camera framing the volume, medians of --runs renders after a warm-up;
 //   * 2x2 ray packets through the default tree (Wald 4.3; Table I's "SIMD" steps);
+//   * a middle variant, implicit-kd-b3 (bricks of 3 unstored levels, ~2^3 cells), for the
+//     memory / speed trade-off of ikd::Config::brick_levels;
+//   * cold and steady state: build_ms is the first build of the tree in the process (its
+//     allocations touch fresh pages), build_ms_again a second build of the same tree (the
+//     allocator's pages are warm); first_frame_ms is the first frame of an impl (frame buffers
+//     and the index touched for the first time), frame_ms the median of --runs frames after it.
+//     A machine started minutes ago pays more for first touches than a process can show (its
+//     hypervisor maps pages on first use), so the cold figures here are a lower bound;
+//   * a middle variant, implicit-kd-b3 (bricks of 3 unstored levels, ~2^3 cells), for the
+//     memory / speed trade-off of ikd::Config::brick_levels;
+//   * cold and steady state: build_ms is the first build of the case in the process (its
+//     allocations touch fresh pages), build_ms_again a second build of the same tree (the
+//     allocator's pages are warm); first_frame_ms is the first frame of an impl (frame buffers
+//     and the index touched for the first time), frame_ms the median of --runs frames after it.
+//     A machine started minutes ago pays more for first touches than this process can show
+//     (its hypervisor maps pages on first use), so cold figures here are a lower bound;
 //   * the images of the tree, its packets and the DDA must be identical (checked every case).
 // Peers on the same camera, rays, size and isovalue, on the same thread pool (rows as
 // render_iso_cpu splits them):
@@ -28,7 +44,8 @@
 // Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3
 // (float32 grids, densities in [0, 1]). JSON records {"case", "impl", "metric", "value", "unit"}.
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512] [--size N] [--runs R]
-//                   [--iso V] [--json FILE] [--threads T]
+//                   [--iso V] [--json FILE] [--threads T] [--no-peers]
+// --no-peers leaves out nanovdb-hdda and bih-iso (whose builds dominate the run at ML 512^3).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -71,6 +88,7 @@ struct Options {
     float iso = 0.3f;
     std::string json;
     std::uint32_t threads = 0;
+    bool peers = true;
 };
 
 struct Record {
@@ -81,7 +99,7 @@ struct Record {
 
 const char* usage() {
     return "usage: sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512] [--size N] [--runs R]\n"
-           "                       [--iso V] [--json FILE] [--threads T]\n";
+           "                       [--iso V] [--json FILE] [--threads T] [--no-peers]\n";
 }
 
 Options parse(int argc, char** argv) {
@@ -105,6 +123,8 @@ Options parse(int argc, char** argv) {
                 throw bench_cli::UsageError("--iso: '" + v + "' is not a density in [0, 1]");
         } else if (a == "--json") {
             o.json = bench_cli::value_of(i, argc, argv);
+        } else if (a == "--no-peers") {
+            o.peers = false;
         } else if (a == "--threads") {
             o.threads = static_cast<std::uint32_t>(bench_cli::parse_count(a, bench_cli::value_of(i, argc, argv), 1024));
         } else {
@@ -145,6 +165,7 @@ Frame measure(const std::vector<std::uint32_t>& words, const GridWords& gw, IsoR
         return packets ? render_iso_cpu_packets(words, gw, p, pool, &n) : render_iso_cpu(words, gw, p, pool, &n);
     };
     Frame f = render();
+    out.push_back({c, impl, "first_frame_ms", f.ms, "ms"});
     std::vector<double> ms;
     for (std::size_t r = 0; r < runs; ++r) {
         f = render();
@@ -428,18 +449,26 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     Frame images[2];
     int k = 0;
     shared::SylvaIkdHeader hdr{};
-    for (std::uint32_t bricks : {ikd::Config{}.brick_levels, 0u}) {
-        std::string impl = bricks ? "implicit-kd" : "implicit-kd-slim";
+    for (std::uint32_t bricks : {ikd::Config{}.brick_levels, 3u, 0u}) {
+        std::string impl = bricks == ikd::Config{}.brick_levels ? "implicit-kd" : bricks ? "implicit-kd-b3" : "implicit-kd-slim";
         ikd::Tree t = ikd::build(*g, pool, ikd::Config{bricks});
         std::vector<std::uint32_t> words = ikd::encode(t);
         out.push_back({c, impl, "build_ms", t.build_ms, "ms"});
+        out.push_back({c, impl, "build_ms_again", ikd::build(*g, pool, ikd::Config{bricks}).build_ms, "ms"});
         out.push_back({c, impl, "index_bytes", double(words.size() * 4), "bytes"});
         out.push_back({c, impl, "index_per_data", double(words.size() * 4) / double(data_bytes), "x"});
-        if (bricks != 0)  // the cell space (origin, 1 / spacing, cells) every walker maps rays into
+        if (bricks == ikd::Config{}.brick_levels)  // the cell space (origin, 1 / spacing, cells) every walker maps rays into
             hdr = shared::sylva_ikd_read_header(shared::Words{words.data(), words.size()},
                                                 static_cast<std::uint32_t>(words.size()),
                                                 static_cast<std::uint32_t>(gw.words.size()));
-        images[k++] = measure(words, gw, p, IsoWalker::Tree, o.runs, pool, c, impl, out);
+        Frame img = measure(words, gw, p, IsoWalker::Tree, o.runs, pool, c, impl, out);
+        if (bricks == 3u) {  // not kept: compared with the default tree's image
+            bool same = std::memcmp(img.rgba.data(), images[0].rgba.data(), img.rgba.size() * sizeof(vec4)) == 0;
+            out.push_back({c, impl, "image_equals_tree", same ? 1.0 : 0.0, "bool"});
+            if (!same) std::cerr << "sylva-iso-bench: " << c << ": the b3 tree's image differs from the default tree's\n";
+            continue;
+        }
+        images[k++] = std::move(img);
         if (bricks != 0) {  // 2x2 packets (Wald 4.3, Table I): the same image in fewer steps
             Frame pk = measure(words, gw, p, IsoWalker::Tree, o.runs, pool, c, impl + "-packet", out, true);
             bool same = std::memcmp(pk.rgba.data(), images[0].rgba.data(), pk.rgba.size() * sizeof(vec4)) == 0;
@@ -454,10 +483,12 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
             if (!same) std::cerr << "sylva-iso-bench: " << c << ": the DDA's image differs from the tree's\n";
         }
     }
+    if (o.peers) {
 #ifdef SYLVA_ISO_BENCH_NANOVDB
-    run_nanovdb(*g, p, hdr, images[0], o.runs, pool, c, out);
+        run_nanovdb(*g, p, hdr, images[0], o.runs, pool, c, out);
 #endif
-    run_bih_iso(*g, p, images[0], o.runs, pool, c, out);
+        run_bih_iso(*g, p, images[0], o.runs, pool, c, out);
+    }
     out.push_back({c, "data", "data_bytes", double(data_bytes), "bytes"});
 }
 
