@@ -1,0 +1,86 @@
+// sylva/render/octree_volume.hpp -- direct volume rendering over the bricked octree on the host,
+// with the shared integrator the shaders run (sylva/shared/octree_dvr.h), over all cores of an
+// executor.
+//
+//   octree::Tree t = octree::build(grid, pool);
+//   std::vector<std::uint32_t> words = octree::encode(t);
+//   Frame f = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);   // p as for the marcher
+//
+// With the full-resolution cut (the default max_level) and the builder's default border the
+// image equals render_dvr_cpu's over the same grid bit for bit (same lattice, same dt).
+#ifndef SYLVA_RENDER_OCTREE_VOLUME_HPP
+#define SYLVA_RENDER_OCTREE_VOLUME_HPP
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sylva/core/error.hpp"
+#include "sylva/core/executor.hpp"
+#include "sylva/render/volume.hpp"
+#include "sylva/shared/octree_dvr.h"
+
+namespace sylva {
+
+/// An encoded bricked octree to render: the index words and the brick buffer
+/// (sylva/octree/encode.hpp); the cut's leaves are the nodes at max_level (or the octree's
+/// leaves above it; the default: the full-resolution leaves).
+struct OctreeView {
+    std::span<const std::uint32_t> words;
+    std::span<const std::uint32_t> bricks;
+    std::uint32_t max_level = 0xFFFFFFFFu;
+};
+
+/// The TF's opacity prefix counts (sylva/shared/octree_dvr.h): entries + 1 words, word i = the
+/// number of entries before entry i with alpha > 0 (the paper's summed table of the opacity,
+/// section 4, as counts: only "any opacity at all" matters for skipping).
+inline std::vector<std::uint32_t> tf_opacity_prefix(std::span<const std::uint32_t> tf) {
+    std::vector<std::uint32_t> sum(tf.size() + 1, 0u);
+    for (std::size_t i = 0; i < tf.size(); ++i) sum[i + 1] = sum[i] + ((tf[i] >> 24) != 0u ? 1u : 0u);
+    return sum;
+}
+
+namespace detail {
+
+/// The octree's header, checked; throws sylva::Error naming the problem.
+inline shared::SylvaOctHeader octree_header(const OctreeView& o) {
+    if (o.words.size() > 0xFFFFFFFFu || o.bricks.size() > 0xFFFFFFFFu)
+        throw Error("render: octree buffers over 2^32 words");
+    shared::SylvaOctHeader h = shared::sylva_oct_read_header(shared::Words{o.words.data(), o.words.size()},
+                                                             std::uint32_t(o.words.size()), std::uint32_t(o.bricks.size()));
+    if (h.valid == 0u) throw Error("render: not a valid encoded octree (header, sizes or brick buffer)");
+    return h;
+}
+
+}  // namespace detail
+
+/// Packs and checks the DVR parameters for the octree's volume (the marcher's, so the lattice
+/// and dt are the same as the marcher's over the same grid).
+inline std::vector<std::uint32_t> octree_dvr_params(const OctreeView& o, const VolumeRenderParams& p) {
+    shared::SylvaOctHeader h = detail::octree_header(o);
+    return detail::pack_dvr(h.dims, h.spacing, p);
+}
+
+/// Renders the octree with the shared integrator (p.mode is ignored); steps = lattice samples
+/// taken, 0xFFFFFFFF where the index was found corrupt.
+template <Executor X>
+Frame render_octree_dvr_cpu(const OctreeView& o, const VolumeRenderParams& p, X& exec) {
+    std::vector<std::uint32_t> params = octree_dvr_params(o, p);
+    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
+    shared::Words pw{params.data(), params.size()}, ow{o.words.data(), o.words.size()},
+        bw{o.bricks.data(), o.bricks.size()}, tw{p.tf.data(), p.tf.size()}, sw{tfsum.data(), tfsum.size()};
+    shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
+    shared::SylvaOctHeader h = detail::octree_header(o);
+    return detail::render_pixels(p, exec, [&](vec3 org, vec3 dir, std::uint32_t& steps) {
+        std::uint32_t visits, status;
+        vec4 c = shared::sylva_oct_dvr_ray(ow, bw, tw, sw, sp, h, o.max_level, org, dir, 0.0f, shared::sylva_inf(), steps,
+                                           visits, status);
+        if (status == SYLVA_ITER_ERROR) steps = 0xFFFFFFFFu;
+        return c;
+    });
+}
+
+}  // namespace sylva
+
+#endif  // SYLVA_RENDER_OCTREE_VOLUME_HPP

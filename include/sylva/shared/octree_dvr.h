@@ -1,0 +1,192 @@
+// sylva/shared/octree_dvr.h -- direct volume rendering over the bricked octree (Gobbetti et al.
+// section 5.3): the stackless walk of octree_iter.h enumerates the cut's leaves front to back;
+// inside each leaf the ray samples the leaf's brick on the global lattice of dvr_common.h,
+// trilinearly, with the marcher's classification, opacity correction, shading and compositing.
+// Leaves whose [min, max] the transfer function maps to zero opacity everywhere are skipped
+// without sampling (section 4: empty nodes; the test is the paper's summed table of the
+// opacity, here a prefix count of the TF entries with alpha > 0).
+//
+// Same image as the marcher (sylva/shared/dvr.h) when the cut is the octree's leaves: every
+// lattice sample of the marcher's span [t_a, t_b) is taken exactly once (the leaves' intervals
+// tile the ray; the first leaf starts at t_a and the last ends at t_b, so that the walk's
+// voxel-space rounding never drops a sample), from a brick holding the same voxels (borders
+// replicate them, clamped at the volume's edge as the marcher clamps), with the marcher's own
+// arithmetic (the continuous voxel index from the world point, the same lerps). A sample
+// rounded just outside its leaf reads the border; shading reads one voxel further, so
+// bit-identical shaded images need border 2 (sylva/octree/build.hpp's default), unshaded ones
+// border 1. Coarser cuts sample the coarse bricks on the same lattice (coarse voxels of
+// spacing * 2^s over ceil(dims / 2^s) of them); the step is not adapted to the level yet.
+//
+// Buffers: `words` the index, `bricks` the bricks, `tf` the RGBA8 transfer function (tf.h),
+// `tfsum` its opacity prefix counts: entries + 1 words, word i = the number of entries before
+// entry i whose alpha is > 0 (sylva/render/octree_volume.hpp: tf_opacity_prefix).
+#ifndef SYLVA_SHARED_OCTREE_DVR_H
+#define SYLVA_SHARED_OCTREE_DVR_H
+
+#include "sylva/shared/dvr_common.h"
+#include "sylva/shared/grid_sample.h"
+#include "sylva/shared/octree_iter.h"
+#include "sylva/shared/tf.h"
+
+SYLVA_BEGIN_NAMESPACE
+
+/// One node's brick as the sampler sees it.
+struct SylvaOctBrick {
+    uint base;      ///< word offset of the brick in the brick buffer
+    ivec3 origin;   ///< voxel (of the node's level) held by brick sample (0, 0, 0): c * B - border
+    uvec3 dims;     ///< the level's extent in voxels: ceil(dims / 2^s), s = L - 1 - level
+    vec3 spacing;   ///< world size of one voxel of the level: spacing * 2^s
+    uint side;      ///< samples per brick side, B + 2 * border
+};
+
+/// The brick of node `node` (level, coordinates) of an octree with header h.
+SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SylvaOctHeader h, uint node, uint level, uvec3 coord) {
+    SylvaOctBrick b;
+    uint s = h.levels - 1u - level;
+    uint w = 1u << s;
+    b.side = h.brick_size + 2u * h.border;
+    b.base = sylva_oct_brick(SYLVA_PASS_BUF(words), node) * h.brick_words;
+    b.origin = ivec3(int(coord.x * h.brick_size) - int(h.border), int(coord.y * h.brick_size) - int(h.border),
+                     int(coord.z * h.brick_size) - int(h.border));
+    b.dims = uvec3((h.dims.x + w - 1u) >> s, (h.dims.y + w - 1u) >> s, (h.dims.z + w - 1u) >> s);
+    b.spacing = vec3(h.spacing.x * float(w), h.spacing.y * float(w), h.spacing.z * float(w));
+    return b;
+}
+
+/// Voxel (x, y, z) of the brick's level, read from the brick (clamped into it: reads never
+/// leave the brick, whatever the point).
+SYLVA_FN float sylva_oct_brick_voxel(SYLVA_BUF(bricks), SylvaOctBrick b, uint x, uint y, uint z) {
+    int top = int(b.side) - 1;
+    ivec3 l = ivec3(int(x) - b.origin.x, int(y) - b.origin.y, int(z) - b.origin.z);
+    l = ivec3(clamp(l.x, 0, top), clamp(l.y, 0, top), clamp(l.z, 0, top));
+    return uintBitsToFloat(SYLVA_LOAD(bricks, b.base + uint(l.x) + b.side * (uint(l.y) + b.side * uint(l.z))));
+}
+
+/// Trilinear density at world point p from the brick: sylva_grid_density's arithmetic
+/// (grid_sample.h) with the voxel reads taken from the brick.
+SYLVA_FN float sylva_oct_brick_density(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 p) {
+    vec3 u = vec3(sylva_grid_index(p.x, b.spacing.x, b.dims.x), sylva_grid_index(p.y, b.spacing.y, b.dims.y),
+                  sylva_grid_index(p.z, b.spacing.z, b.dims.z));
+    uvec3 i0 = uvec3(uint(u.x), uint(u.y), uint(u.z));
+    uvec3 i1 = uvec3((i0.x + 1u < b.dims.x) ? i0.x + 1u : i0.x, (i0.y + 1u < b.dims.y) ? i0.y + 1u : i0.y,
+                     (i0.z + 1u < b.dims.z) ? i0.z + 1u : i0.z);
+    SYLVA_PRECISE vec3 f = vec3(u.x - float(i0.x), u.y - float(i0.y), u.z - float(i0.z));
+    float c00 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i0.y, i0.z),
+                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i0.y, i0.z), f.x);
+    float c10 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i1.y, i0.z),
+                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i1.y, i0.z), f.x);
+    float c01 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i0.y, i1.z),
+                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i0.y, i1.z), f.x);
+    float c11 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i1.y, i1.z),
+                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i1.y, i1.z), f.x);
+    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+}
+
+/// Central-difference gradient at p from the brick: sylva_grid_gradient's arithmetic.
+SYLVA_FN vec3 sylva_oct_brick_gradient(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 p) {
+    vec3 s = b.spacing;
+    SYLVA_PRECISE vec3 px0 = vec3(p.x - s.x, p.y, p.z);
+    SYLVA_PRECISE vec3 px1 = vec3(p.x + s.x, p.y, p.z);
+    SYLVA_PRECISE vec3 py0 = vec3(p.x, p.y - s.y, p.z);
+    SYLVA_PRECISE vec3 py1 = vec3(p.x, p.y + s.y, p.z);
+    SYLVA_PRECISE vec3 pz0 = vec3(p.x, p.y, p.z - s.z);
+    SYLVA_PRECISE vec3 pz1 = vec3(p.x, p.y, p.z + s.z);
+    float gx = sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, px1) - sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, px0);
+    float gy = sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, py1) - sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, py0);
+    float gz = sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, pz1) - sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, pz0);
+    return vec3(gx, gy, gz) * 0.5f;
+}
+
+/// True when the TF gives zero opacity to every density in [lo, hi]: no entry the lookups of
+/// such densities can blend (one entry of slack on each side for rounding) has alpha > 0.
+SYLVA_FN bool sylva_oct_tf_empty(SYLVA_BUF(tfsum), uint entries, float lo, float hi) {
+    if (entries == 0u) return true;
+    uint last = entries - 1u;
+    SYLVA_PRECISE float a = sylva_tf_clamp01(lo) * float(last);
+    SYLVA_PRECISE float c = sylva_tf_clamp01(hi) * float(last);
+    uint i0 = uint(a);
+    i0 = (i0 > 0u) ? i0 - 1u : 0u;
+    uint i1 = min(uint(c) + 2u, last);
+    return SYLVA_LOAD(tfsum, i1 + 1u) == SYLVA_LOAD(tfsum, i0);
+}
+
+/// Samples the lattice points t_k in [t_lo, t_hi) from brick b: the marcher's per-sample work
+/// (dvr.h) with density and gradient from the brick. `steps` counts the samples.
+SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p,
+                                    SylvaOctBrick b, vec3 origin, vec3 d, float t_lo, float t_hi, float units,
+                                    SYLVA_INOUT(uint) steps) {
+    for (uint k = sylva_lattice_first(t_lo, p.dt); steps < SYLVA_DVR_MAX_SAMPLES; k++) {
+        float t = sylva_lattice_t(k, p.dt);
+        if (!(t < t_hi) || acc.alpha >= p.alpha_stop) break;
+        steps = steps + 1u;
+        vec3 x = sylva_dvr_at(origin, d, t);
+        float density = sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, x);
+        if (density > 0.0f) {
+            vec4 c = sylva_tf_lookup(SYLVA_PASS_BUF(tf), p.tf_entries, density);
+            float a = sylva_dvr_correct(c.w, units);
+            if (a > 0.0f) {
+                vec3 rgb = vec3(c.x, c.y, c.z);
+                if ((p.flags & SYLVA_DVR_FLAG_SHADING) != 0u) {
+                    vec3 g = sylva_oct_brick_gradient(SYLVA_PASS_BUF(bricks), b, x);
+                    rgb = sylva_dvr_shade(p, rgb, vec3(g.x / b.spacing.x, g.y / b.spacing.y, g.z / b.spacing.z), d);
+                }
+                sylva_dvr_blend(acc, rgb, a);
+            }
+        }
+    }
+}
+
+/// True when node's brick is sampled: resident, and not empty under the TF.
+SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SylvaDvrParams p, uint node) {
+    uint state = sylva_oct_brick_state(sylva_oct_flags(SYLVA_PASS_BUF(words), node));
+    vec2 range = sylva_oct_range(SYLVA_PASS_BUF(words), node);
+    return state == SYLVA_OCT_BRICK_RESIDENT && !sylva_oct_tf_empty(SYLVA_PASS_BUF(tfsum), p.tf_entries, range.x, range.y);
+}
+
+/// Renders one ray origin + t * direction (normalised here) over [t_min, t_max] through the
+/// octree with header h (sylva_oct_read_header, once a frame), the cut's leaves at max_level.
+/// Returns premultiplied RGB and opacity; `steps` = lattice samples taken, `visits` = leaves
+/// visited, `status` = the walk's final status (SYLVA_ITER_ERROR: corrupted index).
+SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
+                                SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+                                SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
+    steps = 0u;
+    visits = 0u;
+    status = SYLVA_ITER_DONE;
+    if (h.valid == 0u) {
+        status = SYLVA_ITER_ERROR;
+        return vec4(0.0f);
+    }
+    SylvaDvrAcc acc = sylva_dvr_acc_zero();
+    vec3 d = sylva_dvr_unit(direction);
+    vec3 hi = vec3(float(h.dims.x) * h.spacing.x, float(h.dims.y) * h.spacing.y, float(h.dims.z) * h.spacing.z);
+    vec2 span = sylva_dvr_clip(vec3(0.0f), hi, origin, d, t_min, t_max);  // the marcher's span
+    if (!(span.x <= span.y) || !(p.dt > 0.0f) || !(p.unit > 0.0f) || sylva_dvr_dot(d, d) == 0.0f) return vec4(0.0f);
+    float units = p.dt / p.unit;
+    SylvaOctIter it;
+    sylva_oct_begin(it, h, origin, d, span.x, span.y, max_level);
+    float t_lo = span.x;
+    bool last_visible = false;
+    SylvaOctBrick b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, 0u, 0u, uvec3(0u, 0u, 0u));
+    uint node;
+    float t0;
+    float t1;
+    while (acc.alpha < p.alpha_stop && sylva_oct_next(it, SYLVA_PASS_BUF(words), node, t0, t1)) {
+        visits = visits + 1u;
+        last_visible = sylva_oct_dvr_visible(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(tfsum), p, node);
+        if (last_visible) {
+            b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, node, it.level, it.coord);
+            sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, t1, units, steps);
+        }
+        t_lo = t1;
+    }
+    // The marcher's span may end a rounding error after the walk's: the last leaf takes the rest.
+    if (last_visible && it.status == SYLVA_ITER_DONE && t_lo < span.y)
+        sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, span.y, units, steps);
+    status = it.status;
+    return sylva_dvr_result(acc);
+}
+
+SYLVA_END_NAMESPACE
+
+#endif  // SYLVA_SHARED_OCTREE_DVR_H

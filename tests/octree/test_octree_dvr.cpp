@@ -1,0 +1,167 @@
+// DVR over the bricked octree (sylva/shared/octree_dvr.h): with the full-resolution cut the
+// image equals the reference marcher's (sylva/shared/dvr.h) over the same grid bit for bit,
+// shaded or not, over odd extents and both brick sizes; empty leaves are skipped without
+// changing the image; coarser cuts converge towards it.
+#include <catch2/catch.hpp>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <sylva/octree/build.hpp>
+#include <sylva/octree/encode.hpp>
+#include <sylva/render/octree_volume.hpp>
+#include <sylva/render/volume.hpp>
+#include <sylva/volume/procedural.hpp>
+
+#include "reference.hpp"
+
+using namespace sylva;
+using namespace octree_test;
+
+namespace {
+
+std::uint32_t rgba8(float r, float g, float b, float a) {
+    auto q = [](float v) { return std::uint32_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
+    return q(r) | q(g) << 8 | q(b) << 16 | q(a) << 24;
+}
+
+/// A TF transparent below `lo`, then a ramp of colour and opacity.
+std::vector<std::uint32_t> ramp_tf(float lo, float alpha) {
+    std::vector<std::uint32_t> tf(256);
+    for (std::size_t i = 0; i < tf.size(); ++i) {
+        float d = float(i) / 255.0f;
+        tf[i] = rgba8(0.2f + 0.8f * d, 0.9f - 0.5f * d, 0.4f, d <= lo ? 0.0f : alpha * (d - lo) / (1.0f - lo));
+    }
+    return tf;
+}
+
+VolumeRenderParams params(const volume::DensityGrid& g, std::uint32_t size, vec3 view, bool shading, float lo) {
+    VolumeRenderParams p;
+    p.camera = Camera::framing(g.world_box(), view, 35.0f).frame(size, size);
+    p.width = p.height = size;
+    p.tf = ramp_tf(lo, 0.3f);
+    p.shading = shading;
+    return p;
+}
+
+/// Pixels whose RGBA bits differ.
+std::size_t differing(const Frame& a, const Frame& b) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < a.rgba.size(); ++i)
+        for (int c = 0; c < 4; ++c)
+            if (std::bit_cast<std::uint32_t>(a.rgba[i][c]) != std::bit_cast<std::uint32_t>(b.rgba[i][c])) {
+                ++n;
+                break;
+            }
+    return n;
+}
+
+double max_diff(const Frame& a, const Frame& b) {
+    double m = 0.0;
+    for (std::size_t i = 0; i < a.rgba.size(); ++i)
+        for (int c = 0; c < 4; ++c) m = std::max(m, double(std::abs(a.rgba[i][c] - b.rgba[i][c])));
+    return m;
+}
+
+double opacity_sum(const Frame& f) {
+    double s = 0.0;
+    for (const vec4& c : f.rgba) s += c.w;
+    return s;
+}
+
+}  // namespace
+
+TEST_CASE("octree DVR: the full-resolution cut renders the marcher's image bit for bit", "[octree][dvr]") {
+    ThreadPool pool(2);
+    struct Case {
+        volume::DensityGrid grid;
+        octree::Config cfg;
+        vec3 view;
+    };
+    std::vector<Case> cases;
+    cases.push_back({blobs({33, 17, 70}, 21), {16, 2}, {0.4f, 0.3f, 1.0f}});
+    cases.push_back({blobs({45, 40, 38}, 22, vec3(1.0f, 0.5f, 2.0f)), {32, 2}, {-0.7f, 0.2f, -0.5f}});
+    cases.push_back({volume::marschner_lobb({41, 41, 41}), {16, 2}, {0.1f, 1.0f, 0.2f}});
+    cases.push_back({blobs({70, 9, 20}, 23), {4, 2}, {1.0f, 0.0f, 0.0f}});  // axis-aligned view: rays in leaf planes
+    std::size_t pixels = 0, lit = 0;
+    for (const Case& c : cases) {
+        octree::Tree t = octree::build(c.grid, pool, c.cfg);
+        std::vector<std::uint32_t> words = octree::encode(t);
+        GridWords gw = GridWords::from(c.grid);
+        for (bool shading : {false, true}) {
+            VolumeRenderParams p = params(c.grid, 64, c.view, shading, 0.3f);
+            Frame ref = render_dvr_cpu(gw, p, pool);
+            Frame oct = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);
+            INFO(c.grid.dims.x << "x" << c.grid.dims.y << "x" << c.grid.dims.z << " B " << c.cfg.brick_size << " shading "
+                               << shading);
+            CHECK(differing(ref, oct) == 0);
+            CHECK(max_diff(ref, oct) == 0.0);
+            pixels += ref.rgba.size();
+            for (const vec4& v : ref.rgba) lit += v.w > 0.05f ? 1 : 0;
+        }
+    }
+    CHECK(lit > pixels / 10);
+}
+
+TEST_CASE("octree DVR: empty leaves are skipped (fewer samples), the image unchanged", "[octree][dvr]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = blobs({64, 64, 64}, 24);
+    octree::Tree t = octree::build(g, pool, {8, 2});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    VolumeRenderParams p = params(g, 48, {0.3f, 0.5f, 1.0f}, true, 0.55f);
+    Frame ref = render_dvr_cpu(GridWords::from(g), p, pool);
+    Frame oct = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);
+    CHECK(differing(ref, oct) == 0);
+    std::uint64_t ref_steps = 0, oct_steps = 0;
+    for (std::size_t i = 0; i < ref.steps.size(); ++i) {
+        ref_steps += ref.steps[i];
+        oct_steps += oct.steps[i];
+    }
+    INFO("marcher samples " << ref_steps << ", octree samples " << oct_steps);
+    CHECK(oct_steps < ref_steps * 3 / 4);
+    CHECK(opacity_sum(ref) > 10.0);
+    // The prefix counts: entries with alpha > 0 before each entry.
+    std::vector<std::uint32_t> sum = tf_opacity_prefix(p.tf);
+    REQUIRE(sum.size() == 257);
+    CHECK(sum[0] == 0u);
+    CHECK(sum[256] == std::uint32_t(std::count_if(p.tf.begin(), p.tf.end(), [](std::uint32_t c) { return (c >> 24) != 0; })));
+}
+
+TEST_CASE("octree DVR: coarser cuts approach the full-resolution image level by level", "[octree][dvr]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = blobs({96, 80, 70}, 25);
+    octree::Tree t = octree::build(g, pool, {8, 2});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    VolumeRenderParams p = params(g, 48, {0.3f, 0.5f, 1.0f}, false, 0.3f);
+    Frame full = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);
+    REQUIRE(t.levels == 5);
+    double previous = 1e9;
+    for (std::uint32_t level = 1; level + 1 < t.levels; ++level) {
+        Frame cut = render_octree_dvr_cpu(OctreeView{words, t.bricks, level}, p, pool);
+        double err = 0.0;
+        for (std::size_t i = 0; i < cut.rgba.size(); ++i) err += double(glm::length(cut.rgba[i] - full.rgba[i]));
+        INFO("level " << level << " error " << err);
+        CHECK(err < previous);
+        CHECK(err > 0.0);
+        previous = err;
+    }
+}
+
+TEST_CASE("octree DVR: a corrupted index is refused or ends its rays with an error", "[octree][dvr][errors]") {
+    volume::DensityGrid g = blobs({20, 20, 20}, 26);
+    octree::Tree t = octree::build(g, {4, 2});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    VolumeRenderParams p = params(g, 16, {0.3f, 0.5f, 1.0f}, false, 0.3f);
+    SerialExecutor serial;
+    std::vector<std::uint32_t> bad = words;
+    bad[0] = 0;
+    CHECK_THROWS_AS(render_octree_dvr_cpu(OctreeView{bad, t.bricks}, p, serial), Error);
+    bad = words;
+    // Every -x neighbour pointing back at its own node: rays crossing a -x face go round in a
+    // loop (the root instead would not do: descending from it finds the right leaf again).
+    for (std::size_t n = 0; n < t.nodes.size(); ++n) bad[SYLVA_OCT_HEADER_WORDS + 16 * n + 4] = std::uint32_t(n);
+    Frame f = render_octree_dvr_cpu(OctreeView{bad, t.bricks}, p, serial);
+    CHECK(std::count(f.steps.begin(), f.steps.end(), 0xFFFFFFFFu) > 0);
+}
