@@ -23,6 +23,7 @@
 #ifndef SYLVA_SHARED_OCTREE_DVR_H
 #define SYLVA_SHARED_OCTREE_DVR_H
 
+#include "sylva/shared/dvr.h"
 #include "sylva/shared/dvr_common.h"
 #include "sylva/shared/grid_sample.h"
 #include "sylva/shared/octree_iter.h"
