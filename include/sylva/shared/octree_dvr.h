@@ -54,13 +54,15 @@ SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SylvaOctHeader h, ui
     return b;
 }
 
-/// Voxel (x, y, z) of the brick's level, read from the brick (clamped into it: reads never
-/// leave the brick, whatever the point).
-SYLVA_FN float sylva_oct_brick_voxel(SYLVA_BUF(bricks), SylvaOctBrick b, uint x, uint y, uint z) {
-    int top = int(b.side) - 1;
-    ivec3 l = ivec3(int(x) - b.origin.x, int(y) - b.origin.y, int(z) - b.origin.z);
-    l = ivec3(clamp(l.x, 0, top), clamp(l.y, 0, top), clamp(l.z, 0, top));
-    return uintBitsToFloat(SYLVA_LOAD(bricks, b.base + uint(l.x) + b.side * (uint(l.y) + b.side * uint(l.z))));
+/// Brick-local index of voxel i of the level along one axis whose brick starts at voxel `origin`,
+/// clamped into the brick's `side` samples (reads never leave the brick, whatever the point).
+SYLVA_FN uint sylva_oct_brick_local(uint i, int origin, uint side) {
+    return uint(clamp(int(i) - origin, 0, int(side) - 1));
+}
+
+/// Brick word of local sample (x, y, z), as a float.
+SYLVA_FN float sylva_oct_brick_at(SYLVA_BUF(bricks), SylvaOctBrick b, uint x, uint y, uint z) {
+    return uintBitsToFloat(SYLVA_LOAD(bricks, b.base + x + b.side * (y + b.side * z)));
 }
 
 /// Trilinear density at world point p from the brick: sylva_grid_density's arithmetic
@@ -72,14 +74,18 @@ SYLVA_FN float sylva_oct_brick_density(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 
     uvec3 i1 = uvec3((i0.x + 1u < b.dims.x) ? i0.x + 1u : i0.x, (i0.y + 1u < b.dims.y) ? i0.y + 1u : i0.y,
                      (i0.z + 1u < b.dims.z) ? i0.z + 1u : i0.z);
     SYLVA_PRECISE vec3 f = vec3(u.x - float(i0.x), u.y - float(i0.y), u.z - float(i0.z));
-    float c00 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i0.y, i0.z),
-                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i0.y, i0.z), f.x);
-    float c10 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i1.y, i0.z),
-                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i1.y, i0.z), f.x);
-    float c01 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i0.y, i1.z),
-                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i0.y, i1.z), f.x);
-    float c11 = sylva_grid_lerp(sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i0.x, i1.y, i1.z),
-                                sylva_oct_brick_voxel(SYLVA_PASS_BUF(bricks), b, i1.x, i1.y, i1.z), f.x);
+    uvec3 l0 = uvec3(sylva_oct_brick_local(i0.x, b.origin.x, b.side), sylva_oct_brick_local(i0.y, b.origin.y, b.side),
+                     sylva_oct_brick_local(i0.z, b.origin.z, b.side));
+    uvec3 l1 = uvec3(sylva_oct_brick_local(i1.x, b.origin.x, b.side), sylva_oct_brick_local(i1.y, b.origin.y, b.side),
+                     sylva_oct_brick_local(i1.z, b.origin.z, b.side));
+    float c00 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l0.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l0.z), f.x);
+    float c10 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l0.z), f.x);
+    float c01 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l0.y, l1.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l1.z), f.x);
+    float c11 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l1.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l1.z), f.x);
     return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
 }
 
