@@ -3,6 +3,7 @@
 #ifndef SYLVA_BIH_ENCODE_HPP
 #define SYLVA_BIH_ENCODE_HPP
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -74,6 +75,62 @@ inline int stored_children(const Node& n, std::uint32_t out[2]) {
     return k;
 }
 
+/// What encode measures from the nodes themselves (never from Tree::stats, which a hand-built
+/// tree may leave at zero).
+struct Shape {
+    std::uint32_t max_depth = 0;  ///< root = 0
+    std::uint64_t leaves = 0;
+    std::uint64_t elements = 0;  ///< sum of the leaves' counts
+};
+
+/// Checks that the nodes form one tree rooted at node 0 (every child index in range, every node
+/// reached exactly once, so no cycle and no shared subtree, no inner node without a child, axes
+/// 0..2 or kLeaf, depth within the layout's cap) and measures it. Throws sylva::Error naming the
+/// node. The placement and the parallel node writes rely on this: a cycle would loop forever,
+/// an unreached node would be written over node 0.
+inline Shape check_structure(const Tree& t) {
+    const std::size_t n = t.nodes.size();
+    std::vector<std::uint8_t> seen(n, 0);
+    struct Item { std::uint32_t node, depth; };
+    std::vector<Item> stack{{0u, 0u}};
+    seen[0] = 1;
+    Shape s;
+    while (!stack.empty()) {
+        Item it = stack.back();
+        stack.pop_back();
+        const Node& node = t.nodes[it.node];
+        std::string where = "node " + std::to_string(it.node);
+        if (it.depth > SYLVA_BIH_DEPTH_CAP)
+            throw Error("bih::encode: " + where + " lies at depth " + std::to_string(it.depth) + ", over the cap of " +
+                        std::to_string(SYLVA_BIH_DEPTH_CAP));
+        s.max_depth = std::max(s.max_depth, it.depth);
+        if (node.leaf()) {
+            ++s.leaves;
+            s.elements += node.count;
+            continue;
+        }
+        if (node.axis > 2) throw Error("bih::encode: " + where + " has axis " + std::to_string(node.axis) + " (0..2 or leaf)");
+        if (node.children() == 0) throw Error("bih::encode: inner " + where + " has no child");
+        std::uint32_t kids[2];
+        int k = stored_children(node, kids);
+        for (int c = 0; c < k; ++c) {
+            if (kids[c] >= n)
+                throw Error("bih::encode: " + where + " has child index " + std::to_string(kids[c]) + " out of range (" +
+                            std::to_string(n) + " nodes)");
+            if (seen[kids[c]])
+                throw Error("bih::encode: node " + std::to_string(kids[c]) + " is reached twice (from " + where +
+                            "): a cycle or a shared subtree");
+            seen[kids[c]] = 1;
+            stack.push_back({kids[c], it.depth + 1});
+        }
+    }
+    for (std::size_t i = 0; i < n; ++i)
+        if (!seen[i]) throw Error("bih::encode: node " + std::to_string(i) + " is not reached from the root");
+    if (s.elements > 0xFFFFFFFFu)
+        throw Error("bih::encode: the leaves hold " + std::to_string(s.elements) + " elements, over 2^32 - 1");
+    return s;
+}
+
 inline void place_preorder(const Tree& t, Placement& pl) {
     std::uint32_t next = 0;
     std::vector<std::uint32_t> stack{0};
@@ -130,17 +187,17 @@ inline Placement place(const Tree& t, const EncodeConfig& cfg) {
     return pl;
 }
 
-inline void write_header(std::vector<std::uint32_t>& w, const Tree& t, const EncodeConfig& cfg, std::uint32_t kind,
-                         bool single) {
+inline void write_header(std::vector<std::uint32_t>& w, const Tree& t, const Shape& shape, const EncodeConfig& cfg,
+                         std::uint32_t kind, bool single) {
     bool f32 = cfg.format == NodeFormat::Float32;
     w[0] = SYLVA_BIH_MAGIC;
     w[1] = SYLVA_BIH_VERSION;
     w[2] = (f32 ? SYLVA_BIH_FLAG_FLOAT_NODES : 0u) | (cfg.layout == Layout::TreeChunks ? SYLVA_BIH_FLAG_CHUNKED : 0u) |
-           ((cfg.chunk_depth & 15u) << 2) | (single ? SYLVA_BIH_FLAG_SINGLE_CHILD : 0u) | ((kind & 255u) << 8);
+           ((cfg.chunk_depth & 15u) << 2) | (single ? SYLVA_BIH_FLAG_SINGLE_CHILD : 0u) | (kind << 8);  // kind <= 255: checked by encode
     w[3] = static_cast<std::uint32_t>(t.nodes.size());
-    w[4] = t.stats.max_depth;
-    w[5] = static_cast<std::uint32_t>(t.stats.leaves);
-    w[6] = static_cast<std::uint32_t>(t.stats.elements);
+    w[4] = shape.max_depth;
+    w[5] = static_cast<std::uint32_t>(shape.leaves);
+    w[6] = static_cast<std::uint32_t>(shape.elements);
     w[7] = 0;
     vec3 ext = t.bounds.extent();
     for (int a = 0; a < 3; ++a) {
@@ -213,9 +270,12 @@ bool write_nodes(std::vector<std::uint32_t>& w, const Tree& tree, std::span<cons
 
 /// Encodes `tree` (built over `elements`) with leaf payloads from `payload`, writing the nodes
 /// in parallel on `exec` (the placement of the nodes is one serial pass). The result does not
-/// depend on the executor. Throws sylva::Error when the tree has more nodes than the 29-bit
-/// index field can address, a payload encoder would be handed elements `elements` does not
-/// have, or a payload does not fit in 62 bits.
+/// depend on the executor. The tree is not trusted: its links must form one tree rooted at
+/// node 0 (see detail::check_structure), and the header's depth, leaf and element counts are
+/// measured from the nodes, not read from Tree::stats. Throws sylva::Error when the links do
+/// not form such a tree, it is deeper than SYLVA_BIH_DEPTH_CAP, it has more nodes than the
+/// 29-bit index field can address, P::kind does not fit 8 bits, a payload encoder would be
+/// handed elements `elements` does not have, or a payload does not fit in 62 bits.
 template <Bounded E, class P, Executor X>
     requires PayloadEncoder<P, E>
 std::vector<std::uint32_t> encode(const Tree& tree, std::span<const E> elements, const P& payload,
@@ -225,6 +285,9 @@ std::vector<std::uint32_t> encode(const Tree& tree, std::span<const E> elements,
         throw Error("bih::encode: " + std::to_string(tree.nodes.size()) + " nodes exceed the 29-bit node index");
     if (cfg.layout == Layout::TreeChunks && cfg.chunk_depth > 15)
         throw Error("bih::encode: chunk depth " + std::to_string(cfg.chunk_depth) + " is over 15");
+    if (P::kind > 255u)
+        throw Error("bih::encode: payload kind " + std::to_string(P::kind) + " does not fit the header's 8 bits (0..255)");
+    const detail::Shape shape = detail::check_structure(tree);
     bool f32 = cfg.format == NodeFormat::Float32;
     std::vector<std::uint32_t> w(SYLVA_BIH_HEADER_WORDS + tree.nodes.size() * (f32 ? 3u : 2u), 0u);
     detail::Placement pl = detail::place(tree, cfg);
@@ -232,7 +295,7 @@ std::vector<std::uint32_t> encode(const Tree& tree, std::span<const E> elements,
     exec.parallel_for(0, tree.nodes.size(), 1u << 16, [&](std::size_t lo, std::size_t hi) {
         if (detail::write_nodes(w, tree, elements, payload, pl, f32, lo, hi)) single = true;
     });
-    detail::write_header(w, tree, cfg, P::kind, single.load());
+    detail::write_header(w, tree, shape, cfg, P::kind, single.load());
     return w;
 }
 
