@@ -20,3 +20,6 @@
 #include <sylva/shared/cell_dda.h>
 #include <sylva/shared/iso_cell.h>
 #include <sylva/shared/iso_render.h>
+#include <sylva/shared/octree_layout.h>
+#include <sylva/shared/octree_iter.h>
+#include <sylva/shared/octree_dvr.h>

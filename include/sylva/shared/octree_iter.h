@@ -112,6 +112,13 @@ SYLVA_FN void sylva_oct_init(SYLVA_OUT(SylvaOctIter) it, SYLVA_BUF(words), uint 
                     t_min, t_max, max_level);
 }
 
+/// The cut's predicate: a node is a leaf of the current cut when it has no children (flags:
+/// its record word +1) or sits at max_level. The out-of-core cut will add its own conditions
+/// here (brick residency, emptiness under the transfer function); the walk asks nothing else.
+SYLVA_FN bool sylva_oct_is_cut_leaf(uint flags, uint level, uint max_level) {
+    return sylva_oct_child_mask(flags) == 0u || level >= max_level;
+}
+
 /// Ends the traversal at t (early ray termination, first hits).
 SYLVA_FN void sylva_oct_clip(SYLVA_INOUT(SylvaOctIter) it, float t) { it.t_end = sylva_min(it.t_end, t); }
 
@@ -221,15 +228,15 @@ SYLVA_FN bool sylva_oct_next(SYLVA_INOUT(SylvaOctIter) it, SYLVA_BUF(words), SYL
             sylva_oct_cross(it, SYLVA_PASS_BUF(words), face);
             continue;
         }
-        uint mask = sylva_oct_child_mask(sylva_oct_flags(SYLVA_PASS_BUF(words), it.node));
-        if (mask == 0u || it.level >= it.max_level) {  // a leaf of the cut
+        uint flags = sylva_oct_flags(SYLVA_PASS_BUF(words), it.node);
+        if (sylva_oct_is_cut_leaf(flags, it.level, it.max_level)) {
             node = it.node;
             t0 = it.t_cur;
             t1 = sylva_min(te, it.t_end);
             it.t_cur = t1;
             return true;
         }
-        sylva_oct_descend(it, SYLVA_PASS_BUF(words), mask);
+        sylva_oct_descend(it, SYLVA_PASS_BUF(words), sylva_oct_child_mask(flags));
     }
     return false;
 }
