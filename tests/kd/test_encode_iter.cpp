@@ -290,3 +290,53 @@ TEST_CASE("iterator: corrupted encodings end the traversal without reading out o
     CHECK(accepted > 0);  // some flips only move boxes or the transform
     CHECK(errors > 0);
 }
+
+namespace {
+/// A hand-built tree over a 4^3 grid: root 0 splits x at 2 into inner node 1 (splits y at 2 into
+/// leaves 3, 4) and leaf 2. Depth 2, three leaves; stats left at their defaults.
+Tree hand_built_kd() {
+    Tree t;
+    t.dims = {4, 4, 4};
+    auto box = [](uvec3 lo, uvec3 hi) { return kdtree::VoxelBox{lo, hi}; };
+    t.nodes.resize(5);
+    t.nodes[0] = {box({0, 0, 0}, {4, 4, 4}), 1, kdtree::kNone, 2, 0, 0};
+    t.nodes[1] = {box({0, 0, 0}, {2, 4, 4}), 3, kdtree::kNone, 2, 1, 1};
+    t.nodes[2] = {box({2, 0, 0}, {4, 4, 4}), kdtree::kNone, 0, 0, kdtree::kLeaf, 1};
+    t.nodes[3] = {box({0, 0, 0}, {2, 2, 4}), kdtree::kNone, 1, 0, kdtree::kLeaf, 2};
+    t.nodes[4] = {box({0, 2, 0}, {2, 4, 4}), kdtree::kNone, 2, 0, kdtree::kLeaf, 2};
+    t.leaves = {2, 3, 4};
+    return t;
+}
+}  // namespace
+
+TEST_CASE("encode: measures the depth itself, so a hand-built tree encodes and validates", "[encode][structure]") {
+    Tree t = hand_built_kd();
+    std::vector<std::uint32_t> w = kdtree::encode(t);
+    CHECK(w[4] == 2u);
+    CHECK_NOTHROW(kdtree::validate(w));
+}
+
+TEST_CASE("encode: refuses links that are not one tree rooted at node 0", "[encode][structure]") {
+    using Catch::Matchers::Contains;
+    Tree shared = hand_built_kd();
+    shared.nodes[2] = shared.nodes[1];  // node 2 inner with the same children as node 1
+    shared.nodes[2].box = {{2, 0, 0}, {4, 4, 4}};
+    shared.nodes[3].leaf = 0;
+    shared.nodes[4].leaf = 1;
+    shared.leaves = {3, 4};
+    CHECK_THROWS_WITH(kdtree::encode(shared), Contains("node 3") && Contains("twice"));
+
+    Tree orphan = hand_built_kd();
+    orphan.nodes.push_back(orphan.nodes[2]);  // node 5: a leaf nothing points at
+    orphan.nodes[5].leaf = 3;
+    orphan.leaves.push_back(5);
+    CHECK_THROWS_WITH(kdtree::encode(orphan), Contains("node 5") && Contains("not reached"));
+
+    Tree swapped = hand_built_kd();
+    swapped.nodes[3].leaf = 0;  // leaf index 0 twice, 1 unused
+    CHECK_THROWS_WITH(kdtree::encode(swapped), Contains("leaf index 0"));
+
+    Tree mismatch = hand_built_kd();
+    mismatch.leaves = {3, 2, 4};  // Tree::leaves disagrees with the nodes' leaf indices
+    CHECK_THROWS_WITH(kdtree::encode(mismatch), Contains("leaf index"));
+}

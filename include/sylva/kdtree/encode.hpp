@@ -4,6 +4,7 @@
 #ifndef SYLVA_KDTREE_ENCODE_HPP
 #define SYLVA_KDTREE_ENCODE_HPP
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -36,15 +37,64 @@ inline void check_encodable(const Tree& t) {
     }
     if (t.nodes.size() > SYLVA_KD_MAX_INDEX || t.leaves.size() > SYLVA_KD_MAX_INDEX)
         throw Error("kdtree::encode: " + std::to_string(t.nodes.size()) + " nodes exceed the 30-bit index");
-    if (t.stats.max_depth > SYLVA_KD_DEPTH_CAP) throw Error("kdtree::encode: tree deeper than the depth cap");
 }
 
-inline void write_header(std::vector<std::uint32_t>& w, const Tree& t) {
+/// Checks that the nodes form one tree rooted at node 0 (children in range and after their
+/// parent, every node reached exactly once, axes 0..2 or kLeaf, every leaf's index used once and
+/// matching Tree::leaves, depth within SYLVA_KD_DEPTH_CAP) and returns its depth (root = 0),
+/// measured from the nodes, never read from Tree::stats. Throws sylva::Error naming the node.
+inline std::uint32_t check_structure(const Tree& t) {
+    const std::size_t n = t.nodes.size();
+    if (n == 0) {
+        if (!t.leaves.empty()) throw Error("kdtree::encode: a tree without nodes lists leaves");
+        return 0;
+    }
+    std::vector<std::uint8_t> seen(n, 0), leaf_seen(t.leaves.size(), 0);
+    struct Item { std::uint32_t node, depth; };
+    std::vector<Item> stack{{0u, 0u}};
+    seen[0] = 1;
+    std::uint32_t depth = 0;
+    while (!stack.empty()) {
+        Item it = stack.back();
+        stack.pop_back();
+        const Node& node = t.nodes[it.node];
+        std::string where = "node " + std::to_string(it.node);
+        if (it.depth > SYLVA_KD_DEPTH_CAP)
+            throw Error("kdtree::encode: " + where + " lies at depth " + std::to_string(it.depth) + ", over the cap of " +
+                        std::to_string(SYLVA_KD_DEPTH_CAP));
+        depth = std::max(depth, it.depth);
+        if (node.is_leaf()) {
+            if (node.leaf >= t.leaves.size() || leaf_seen[node.leaf] || t.leaves[node.leaf] != it.node)
+                throw Error("kdtree::encode: leaf " + where + " has leaf index " + std::to_string(node.leaf) +
+                            ", which is out of range, repeated or not this node's entry in Tree::leaves");
+            leaf_seen[node.leaf] = 1;
+            continue;
+        }
+        if (node.axis > 2) throw Error("kdtree::encode: " + where + " has axis " + std::to_string(node.axis));
+        if (node.first_child <= it.node || std::size_t{node.first_child} + 1 >= n)
+            throw Error("kdtree::encode: inner " + where + " has children " + std::to_string(node.first_child) +
+                        " (out of range or not after their parent)");
+        for (std::uint32_t c = node.first_child; c <= node.first_child + 1; ++c) {
+            if (seen[c])
+                throw Error("kdtree::encode: node " + std::to_string(c) + " is reached twice (from " + where +
+                            "): a shared subtree");
+            seen[c] = 1;
+            stack.push_back({c, it.depth + 1});
+        }
+    }
+    for (std::size_t i = 0; i < n; ++i)
+        if (!seen[i]) throw Error("kdtree::encode: node " + std::to_string(i) + " is not reached from the root");
+    for (std::size_t i = 0; i < leaf_seen.size(); ++i)
+        if (!leaf_seen[i]) throw Error("kdtree::encode: leaf index " + std::to_string(i) + " belongs to no leaf");
+    return depth;
+}
+
+inline void write_header(std::vector<std::uint32_t>& w, const Tree& t, std::uint32_t depth) {
     w[0] = SYLVA_KD_MAGIC;
     w[1] = SYLVA_KD_VERSION;
     w[2] = 0;
     w[3] = static_cast<std::uint32_t>(t.nodes.size());
-    w[4] = t.stats.max_depth;
+    w[4] = depth;
     w[5] = static_cast<std::uint32_t>(t.leaves.size());
     for (int a = 0; a < 3; ++a) {
         w[6 + a] = t.dims[a];
@@ -76,11 +126,14 @@ inline void write_node(std::uint32_t* at, const Tree& t, std::size_t i) {
 
 /// Encodes `tree` (see sylva/shared/kd_layout.h). Throws sylva::Error when a grid dimension is
 /// over 65535 (16-bit box coordinates), the spacing is not finite and positive, or the tree
-/// breaks the layout (children before their parent, empty boxes, too many nodes).
+/// breaks the layout (children before their parent, empty boxes, too many nodes). The tree is
+/// not trusted: its links must form one tree rooted at node 0 (detail::check_structure), and
+/// the header's depth is measured from the nodes, not read from Tree::stats.
 inline std::vector<std::uint32_t> encode(const Tree& tree) {
     detail::check_encodable(tree);
+    const std::uint32_t depth = detail::check_structure(tree);
     std::vector<std::uint32_t> w(SYLVA_KD_HEADER_WORDS + tree.nodes.size() * SYLVA_KD_NODE_WORDS, 0u);
-    detail::write_header(w, tree);
+    detail::write_header(w, tree, depth);
     for (std::size_t i = 0; i < tree.nodes.size(); ++i)
         detail::write_node(&w[SYLVA_KD_HEADER_WORDS + i * SYLVA_KD_NODE_WORDS], tree, i);
     return w;
