@@ -137,16 +137,28 @@ TEST_CASE("octree DVR: coarser cuts approach the full-resolution image level by 
     VolumeRenderParams p = params(g, 48, {0.3f, 0.5f, 1.0f}, false, 0.3f);
     Frame full = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);
     REQUIRE(t.levels == 5);
+    auto samples = [](const Frame& f) {
+        std::uint64_t n = 0;
+        for (std::uint32_t s : f.steps) n += s;
+        return double(n);
+    };
     double previous = 1e9;
     for (std::uint32_t level = 1; level + 1 < t.levels; ++level) {
         Frame cut = render_octree_dvr_cpu(OctreeView{words, t.bricks, level}, p, pool);
         double err = 0.0;
         for (std::size_t i = 0; i < cut.rgba.size(); ++i) err += double(glm::length(cut.rgba[i] - full.rgba[i]));
-        INFO("level " << level << " error " << err);
+        // The step follows the level (dt 2^s): about 2^s times fewer samples than the leaves take.
+        double ratio = samples(full) / samples(cut), expected = double(1u << (t.levels - 1 - level));
+        INFO("level " << level << " error " << err << " sample ratio " << ratio);
         CHECK(err < previous);
         CHECK(err > 0.0);
+        CHECK(ratio > 0.6 * expected);
+        CHECK(ratio < 1.6 * expected);
         previous = err;
     }
+    // Opacity corrected for the longer step: the coarse images keep the full one's total opacity.
+    Frame coarse = render_octree_dvr_cpu(OctreeView{words, t.bricks, 2}, p, pool);
+    CHECK(opacity_sum(coarse) == Approx(opacity_sum(full)).epsilon(0.1));
 }
 
 TEST_CASE("octree DVR: a corrupted index is refused or ends its rays with an error", "[octree][dvr][errors]") {

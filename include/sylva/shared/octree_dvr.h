@@ -14,8 +14,9 @@
 // arithmetic (the continuous voxel index from the world point, the same lerps). A sample
 // rounded just outside its leaf reads the border; shading reads one voxel further, so
 // bit-identical shaded images need border 2 (sylva/octree/build.hpp's default), unshaded ones
-// border 1. Coarser cuts sample the coarse bricks on the same lattice (coarse voxels of
-// spacing * 2^s over ceil(dims / 2^s) of them); the step is not adapted to the level yet.
+// border 1. Coarser cuts sample the coarse bricks (coarse voxels of spacing * 2^s over
+// ceil(dims / 2^s) of them) with the step adapted to the level (section 5.3): dt * 2^s, every
+// 2^s-th point of the same global lattice, with the opacity corrected for that step.
 //
 // Buffers: `words` the index, `bricks` the bricks, `tf` the RGBA8 transfer function (tf.h),
 // `tfsum` its opacity prefix counts: entries + 1 words, word i = the number of entries before
@@ -120,10 +121,10 @@ SYLVA_FN bool sylva_oct_tf_empty(SYLVA_BUF(tfsum), uint entries, float lo, float
 /// Samples the lattice points t_k in [t_lo, t_hi) from brick b: the marcher's per-sample work
 /// (dvr.h) with density and gradient from the brick. `steps` counts the samples.
 SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p,
-                                    SylvaOctBrick b, vec3 origin, vec3 d, float t_lo, float t_hi, float units,
+                                    SylvaOctBrick b, vec3 origin, vec3 d, float t_lo, float t_hi, float dt, float units,
                                     SYLVA_INOUT(uint) steps) {
-    for (uint k = sylva_lattice_first(t_lo, p.dt); steps < SYLVA_DVR_MAX_SAMPLES; k++) {
-        float t = sylva_lattice_t(k, p.dt);
+    for (uint k = sylva_lattice_first(t_lo, dt); steps < SYLVA_DVR_MAX_SAMPLES; k++) {
+        float t = sylva_lattice_t(k, dt);
         if (!(t < t_hi) || acc.alpha >= p.alpha_stop) break;
         steps = steps + 1u;
         vec3 x = sylva_dvr_at(origin, d, t);
@@ -142,6 +143,12 @@ SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bric
         }
     }
 }
+
+/// The lattice step in a brick of coarse level s (voxels 2^s wide): dt * 2^s (section 5.3:
+/// "stepping by a discrete number of intervals, which are directly associated to octree
+/// levels"). Exact in float, so a coarse lattice is every 2^s-th point of the fine one; the
+/// opacity correction uses the step (dt_s / unit), so coarse cuts keep the image's opacity.
+SYLVA_FN float sylva_oct_level_dt(float dt, uint s) { return dt * float(1u << s); }
 
 /// True when node's brick is sampled: resident, and not empty under the TF.
 SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SylvaDvrParams p, uint node) {
@@ -169,6 +176,7 @@ SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(t
     vec3 hi = vec3(float(h.dims.x) * h.spacing.x, float(h.dims.y) * h.spacing.y, float(h.dims.z) * h.spacing.z);
     vec2 span = sylva_dvr_clip(vec3(0.0f), hi, origin, d, t_min, t_max);  // the marcher's span
     if (!(span.x <= span.y) || !(p.dt > 0.0f) || !(p.unit > 0.0f) || sylva_dvr_dot(d, d) == 0.0f) return vec4(0.0f);
+    float dt = p.dt;
     float units = p.dt / p.unit;
     SylvaOctIter it;
     sylva_oct_begin(it, h, origin, d, span.x, span.y, max_level);
@@ -183,13 +191,15 @@ SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(t
         last_visible = sylva_oct_dvr_visible(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(tfsum), p, node);
         if (last_visible) {
             b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, node, it.level, it.coord);
-            sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, t1, units, steps);
+            dt = sylva_oct_level_dt(p.dt, h.levels - 1u - it.level);
+            units = dt / p.unit;
+            sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, t1, dt, units, steps);
         }
         t_lo = t1;
     }
     // The marcher's span may end a rounding error after the walk's: the last leaf takes the rest.
     if (last_visible && it.status == SYLVA_ITER_DONE && t_lo < span.y)
-        sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, span.y, units, steps);
+        sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, span.y, dt, units, steps);
     status = it.status;
     return sylva_dvr_result(acc);
 }
