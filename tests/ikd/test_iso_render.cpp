@@ -2,7 +2,9 @@
 // DDA give identical images hit for hit, hits against closed forms, and the bad cases.
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <bit>
+#include <random>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -197,4 +199,90 @@ TEST_CASE("iso rendering: 2x2 packets give the single-ray image bit for bit, in 
     p.camera = Camera{vec3(10.5f), vec3(10.5f, 10.5f, 20.0f), vec3(0.0f, 1.0f, 0.0f), 90.0f}.frame(32, 32);
     p.isos = {{0.5f, vec4(1.0f)}};
     CHECK(bits_of(render_iso_cpu(words, gw, p, pool)) == bits_of(render_iso_cpu_packets(words, gw, p, pool)));
+}
+
+namespace {
+
+struct LaneCell {
+    glm::u32vec3 cell;
+    std::uint32_t t0, t1;  // bits
+    bool operator==(const LaneCell&) const = default;
+};
+
+/// The single-ray iterator's candidate cells of one ray, with their interval bits.
+std::vector<LaneCell> single_cells(const std::vector<std::uint32_t>& words, const GridWords& gw,
+                                   const shared::SylvaIkdHeader& hdr, vec3 o, vec3 d, float t0, float t1, vec4 isos) {
+    shared::Words tw{words.data(), words.size()}, g{gw.words.data(), gw.words.size()};
+    shared::SylvaIkdIter it;
+    shared::sylva_ikd_begin(it, hdr, o, d, t0, t1, isos, 2u);
+    std::vector<LaneCell> out;
+    glm::u32vec3 c;
+    float a, b;
+    while (shared::sylva_ikd_next(it, tw, g, c, a, b)) out.push_back({c, std::bit_cast<std::uint32_t>(a), std::bit_cast<std::uint32_t>(b)});
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("ikd packets: each lane's cells and interval bits are its single ray's, parallel lanes included", "[ikd][packet]") {
+    // Rays of one sign pattern, some lanes with +-0 direction components (parallel to an axis:
+    // the lane keeps its interval on its side of each split plane), origins on cell planes,
+    // inside and outside the grid, inactive lanes; odd dims, the slim and the bricked tree.
+    volume::DensityGrid g = volume::marschner_lobb({23, 17, 30});
+    GridWords gw = GridWords::from(g);
+    const vec4 isos(0.3f, 0.6f, 0.0f, 0.0f);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::size_t lanes_checked = 0, parallel_lanes = 0, cells_seen = 0;
+    for (std::uint32_t bricks : {0u, 6u}) {
+        std::vector<std::uint32_t> words = ikd::encode(ikd::build(g, ikd::Config{bricks}));
+        shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(shared::Words{words.data(), words.size()},
+                                                                    static_cast<std::uint32_t>(words.size()),
+                                                                    static_cast<std::uint32_t>(gw.words.size()));
+        REQUIRE(hdr.valid == 1u);
+        vec3 cells(hdr.cells);
+        for (int n = 0; n < 3000; ++n) {
+            ikd::RayPacket pk;
+            glm::bvec3 negative(u(rng) < 0.5f, u(rng) < 0.5f, u(rng) < 0.5f);
+            for (int k = 0; k < ikd::kPacketLanes; ++k) {
+                if (u(rng) < 0.1f) continue;  // inactive lane
+                pk.active |= 1u << k;
+                vec3 cell_o(u(rng) * 1.4f - 0.2f, u(rng) * 1.4f - 0.2f, u(rng) * 1.4f - 0.2f);
+                cell_o *= cells;
+                for (int a = 0; a < 3; ++a)
+                    if (u(rng) < 0.3f) cell_o[a] = std::floor(cell_o[a]);  // on a cell plane
+                pk.origin[k] = hdr.origin + cell_o / hdr.inv_spacing;
+                for (int a = 0; a < 3; ++a) {
+                    float m = u(rng) < 0.2f ? 0.0f : 0.05f + u(rng);
+                    pk.direction[k][a] = negative[a] ? -m : m;  // -0.0f on a negative axis: same sign bit
+                }
+                if (pk.direction[k] == vec3(0.0f)) pk.direction[k].x = negative.x ? -1.0f : 1.0f;
+                parallel_lanes += pk.direction[k].x == 0.0f || pk.direction[k].y == 0.0f || pk.direction[k].z == 0.0f;
+                pk.t_min[k] = u(rng) < 0.2f ? u(rng) * 10.0f : 0.0f;
+                pk.t_max[k] = u(rng) < 0.2f ? pk.t_min[k] + u(rng) * 30.0f : shared::sylva_inf();
+            }
+            REQUIRE(ikd::same_signs(pk));
+            ikd::PacketIter it(words, gw.words, hdr, pk, isos, 2u);
+            std::array<std::vector<LaneCell>, ikd::kPacketLanes> got;
+            ikd::PacketCell c;
+            while (it.next(c))
+                for (int k = 0; k < ikd::kPacketLanes; ++k)
+                    if (c.mask >> k & 1u)
+                        got[k].push_back({c.cell, std::bit_cast<std::uint32_t>(c.t0[k]), std::bit_cast<std::uint32_t>(c.t1[k])});
+            REQUIRE(it.status() == SYLVA_ITER_DONE);
+            for (int k = 0; k < ikd::kPacketLanes; ++k) {
+                if (!(pk.active >> k & 1u)) {
+                    CHECK(got[k].empty());
+                    continue;
+                }
+                std::vector<LaneCell> want = single_cells(words, gw, hdr, pk.origin[k], pk.direction[k], pk.t_min[k], pk.t_max[k], isos);
+                CHECK(got[k] == want);
+                ++lanes_checked;
+                cells_seen += want.size();
+            }
+        }
+    }
+    CHECK(lanes_checked > 15000);
+    CHECK(parallel_lanes > 5000);
+    CHECK(cells_seen > 10000);
 }

@@ -180,6 +180,7 @@ public:
                 lanes_.o[a][k] = org[a];
                 lanes_.r[a][k] = rcp[a];
                 lanes_.par[a][k] = par[a] ? -1 : 0;
+                any_parallel_[a] = any_parallel_[a] || par[a] != 0u;
             }
         }
         // The root goes through pop() like every subtree, so its lanes see their limits.
@@ -290,7 +291,7 @@ private:
         n.level += 1;
         if (split >= hdr_.cells[axis]) return true;
         F4 o = load4(lanes_.o[axis]), s = set4(static_cast<float>(split));
-        M4 par = mask_of4(lanes_.par[axis]);
+        M4 par = mask_of4(lanes_.par[axis]);  // (read only when a lane is parallel to the axis)
         F4 ts = canon4(mul4(sub4(s, o), load4(lanes_.r[axis])));
         // sylva_min(t_out, ts) = min4(ts, t_out); sylva_max(t_in, ts) = max4(ts, t_in).
         F4 cut_out = min4(ts, n.t_out), cut_in = max4(ts, n.t_in);
@@ -298,12 +299,14 @@ private:
         F4 lo_in = lower_first ? n.t_in : cut_in, lo_out = lower_first ? cut_out : n.t_out;
         F4 up_in = lower_first ? cut_in : n.t_in, up_out = lower_first ? n.t_out : cut_out;
         // Lanes parallel to the axis keep their interval on the side(s) of the plane they lie on.
-        const F4 inf = set4(shared::sylva_inf()), ninf = set4(-shared::sylva_inf());
-        M4 lo_gone = and4(par, gt4(o, s)), up_gone = and4(par, lt4(o, s));
-        lo_in = select4(lo_gone, inf, select4(par, n.t_in, lo_in));
-        lo_out = select4(lo_gone, ninf, select4(par, n.t_out, lo_out));
-        up_in = select4(up_gone, inf, select4(par, n.t_in, up_in));
-        up_out = select4(up_gone, ninf, select4(par, n.t_out, up_out));
+        if (any_parallel_[axis]) {
+            const F4 inf = set4(shared::sylva_inf()), ninf = set4(-shared::sylva_inf());
+            M4 lo_gone = and4(par, gt4(o, s)), up_gone = and4(par, lt4(o, s));
+            lo_in = select4(lo_gone, inf, select4(par, n.t_in, lo_in));
+            lo_out = select4(lo_gone, ninf, select4(par, n.t_out, lo_out));
+            up_in = select4(up_gone, inf, select4(par, n.t_in, up_in));
+            up_out = select4(up_gone, ninf, select4(par, n.t_out, up_out));
+        }
         std::uint32_t lo_mask = le_bits4(lo_in, lo_out) & n.mask, up_mask = le_bits4(up_in, up_out) & n.mask;
         glm::u32vec3 up_node = n.node;
         up_node[axis] = split;
@@ -336,6 +339,7 @@ private:
     Lanes lanes_;
     alignas(16) std::array<float, kPacketLanes> limit_{};
     glm::u32vec3 lower_first_{1u};
+    std::array<bool, 3> any_parallel_{};  ///< per axis: an active lane's ray is parallel to it
     // The stack, rows below sp_ set before use (not cleared for every packet): packed first cell
     // (x | y << 16, z | level << 16, as the single-ray stack), lanes and intervals.
     std::uint32_t st_xy_[kStack], st_zl_[kStack], st_mask_[kStack];

@@ -305,17 +305,18 @@ SYLVA_FN void sylva_ikd_descend(SYLVA_INOUT(SylvaIkdIter) it, uint entry) {
 }
 
 /// The eight corner densities of cell c of a grid of `cells` cells: lo = the z = c.z face
-/// ((0,0), (1,0), (0,1), (1,1) in x, y), hi = the z = c.z + 1 face in the same order.
+/// ((0,0), (1,0), (0,1), (1,1) in x, y), hi = the z = c.z + 1 face in the same order. One index
+/// is computed and the others are offsets from it (the header check keeps the grid's sample
+/// count below 2^32, so none wraps).
 SYLVA_FN void sylva_ikd_corners(SYLVA_BUF(grid), uvec3 cells, uvec3 c, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
-    uvec3 g = uvec3(cells.x + 1u, cells.y + 1u, cells.z + 1u);
-    lo = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z),
-              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z),
-              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z),
-              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z));
-    hi = vec4(sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y, c.z + 1u),
-              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y, c.z + 1u),
-              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x, c.y + 1u, c.z + 1u),
-              sylva_grid_voxel(SYLVA_PASS_BUF(grid), g, c.x + 1u, c.y + 1u, c.z + 1u));
+    uint gx = cells.x + 1u;
+    uint gxy = gx * (cells.y + 1u);
+    uint i = c.x + gx * c.y + gxy * c.z;
+    uint j = i + gxy;
+    lo = vec4(uintBitsToFloat(SYLVA_LOAD(grid, i)), uintBitsToFloat(SYLVA_LOAD(grid, i + 1u)),
+              uintBitsToFloat(SYLVA_LOAD(grid, i + gx)), uintBitsToFloat(SYLVA_LOAD(grid, i + gx + 1u)));
+    hi = vec4(uintBitsToFloat(SYLVA_LOAD(grid, j)), uintBitsToFloat(SYLVA_LOAD(grid, j + 1u)),
+              uintBitsToFloat(SYLVA_LOAD(grid, j + gx)), uintBitsToFloat(SYLVA_LOAD(grid, j + gx + 1u)));
 }
 
 /// True when the corners' [min, max] holds one of the first `count` isovalues.
