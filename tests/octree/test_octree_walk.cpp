@@ -90,6 +90,8 @@ TEST_CASE("octree walk: the stackless walk visits the reference walk's leaves in
     compare(octree::build(blobs({1, 1, 1}, 4), {32, 2}), 2000, 4, all, tally);
     compare(octree::build(blobs({2, 2, 2}, 5), {4, 1}), 2000, 5, all, tally);
     compare(octree::build(blobs({37, 64, 20}, 6, vec3(1.0f, 2.0f, 0.5f)), {4, 1}), 10000, 6, all, tally);
+    // A spacing whose inverse is inexact (the lobster's 1.4): lattice rays are only nearly on planes.
+    compare(octree::build(blobs({41, 30, 22}, 16, vec3(1.0f, 0.7f, 1.4f)), {4, 1}), 5000, 16, all, tally);
     // Cuts above the leaves.
     octree::Tree cut = octree::build(blobs({50, 61, 29}, 7), {4, 1});
     for (std::uint32_t level = 0; level < cut.levels; ++level) compare(cut, 2000, 70 + level, level, tally);
