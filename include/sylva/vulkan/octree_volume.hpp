@@ -1,0 +1,89 @@
+// sylva/vulkan/octree_volume.hpp -- DVR over the bricked octree as a compute shader
+// (shaders/octree_dvr.comp, embedded SPIR-V running sylva/shared/octree_dvr.h): same parameters
+// and Frame as render_octree_dvr_cpu (sylva/render/octree_volume.hpp).
+//
+//   auto ctx = sylva::vk::Context::create();
+//   sylva::vk::DeviceOctree oct(ctx, sylva::OctreeView{words, tree.bricks});
+//   sylva::Frame img = sylva::vk::render_octree_dvr_vulkan(ctx, oct, params);
+#ifndef SYLVA_VULKAN_OCTREE_VOLUME_HPP
+#define SYLVA_VULKAN_OCTREE_VOLUME_HPP
+
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <optional>
+#include <vector>
+
+#include "sylva/render/octree_volume.hpp"
+#include "sylva/spirv/octree_dvr.h"
+#include "sylva/vulkan/runner.hpp"
+#include "sylva/vulkan/split_words.hpp"
+#include "sylva/vulkan/volume.hpp"
+
+namespace sylva::vk {
+
+/// An encoded octree uploaded once: the index in one buffer, the bricks split over four
+/// bindings (brick buffers over 128 MiB work).
+class DeviceOctree {
+public:
+    /// Checks the header against the brick buffer (throws sylva::Error naming the problem);
+    /// `shift` 0 picks the largest part the device allows, tests force small parts.
+    DeviceOctree(Context& ctx, const OctreeView& view, std::uint32_t shift = 0)
+        : header_(sylva::detail::octree_header(view)),
+          bricks_(split_words(ctx, view.bricks, 4, shift)),
+          parts_(used_parts(view.bricks.size(), bricks_.shift)),
+          index_(ctx, view.words.size() * 4),
+          brick_words_(static_cast<std::uint32_t>(view.bricks.size())),
+          max_level_(view.max_level) {
+        index_.upload(view.words);
+    }
+    [[nodiscard]] const shared::SylvaOctHeader& header() const { return header_; }
+    [[nodiscard]] std::uint32_t brick_words() const { return brick_words_; }
+    [[nodiscard]] std::uint32_t max_level() const { return max_level_; }
+    /// The kernel for this octree's brick split, built on first use and kept.
+    Kernel& kernel(Context& ctx) {
+        std::array<std::uint32_t, 2> constants{bricks_.shift, parts_};
+        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 9, 8, constants);
+        return *kernel_;
+    }
+    [[nodiscard]] Buffer* brick_part(std::size_t i) { return &bricks_.parts[i]; }
+    [[nodiscard]] Buffer* index() { return &index_; }
+
+private:
+    shared::SylvaOctHeader header_;
+    SplitWords bricks_;
+    std::uint32_t parts_;
+    Buffer index_;
+    std::uint32_t brick_words_;
+    std::uint32_t max_level_;
+    std::optional<Kernel> kernel_;
+};
+
+/// Renders the octree on the device with its view's cut; same output as render_octree_dvr_cpu
+/// (lattice samples, statuses exact; colours within the transcendentals' few ulp).
+inline Frame render_octree_dvr_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p) {
+    std::vector<std::uint32_t> params = sylva::detail::pack_dvr(oct.header().dims, oct.header().spacing, p);
+    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
+    Buffer tf(ctx, p.tf.size() * 4), sum(ctx, tfsum.size() * 4), pb(ctx, params.size() * 4),
+        out(ctx, std::size_t{p.width} * p.height * 5 * 4);
+    tf.upload(p.tf);
+    sum.upload(tfsum);
+    pb.upload(params);
+    std::array<Buffer*, 9> bind{oct.brick_part(0), oct.brick_part(1), oct.brick_part(2), oct.brick_part(3), oct.index(),
+                                &tf,               &sum,              &pb,               &out};
+    std::array<std::uint32_t, 2> push{oct.max_level(), oct.brick_words()};
+    Frame f{p.width, p.height, std::vector<vec4>(std::size_t{p.width} * p.height),
+            std::vector<std::uint32_t>(std::size_t{p.width} * p.height), 0.0};
+    f.ms = ctx.dispatch(oct.kernel(ctx), bind, push.data(), sizeof push, groups_for(p.width, 8), groups_for(p.height, 8));
+    std::vector<std::uint32_t> px(std::size_t{p.width} * p.height * 5);
+    out.download(px);
+    for (std::size_t i = 0; i < f.rgba.size(); ++i) {
+        std::memcpy(&f.rgba[i], &px[i * 5], 16);
+        f.steps[i] = px[i * 5 + 4];
+    }
+    return f;
+}
+
+}  // namespace sylva::vk
+
+#endif  // SYLVA_VULKAN_OCTREE_VOLUME_HPP

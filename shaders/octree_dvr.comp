@@ -1,0 +1,59 @@
+#version 460
+// DVR over the bricked octree (sylva/shared/octree_dvr.h): the stackless neighbour-pointer walk
+// over the cut's leaves, each sampled from its brick on the marcher's global lattice.
+//
+// Bindings: 0-3 the bricks (SYLVA_SPLIT_WORDS: brick buffers over 128 MiB); 4 the index words
+// (sylva/shared/octree_layout.h); 5 the transfer function (RGBA8 words, sylva/shared/tf.h); 6 its
+// opacity prefix counts (entries + 1 words); 7 the parameter block (SYLVA_DVR_PARAM_WORDS words,
+// sylva/shared/dvr_common.h); 8 output, 5 words per pixel: premultiplied R, G, B, alpha (float
+// bits) and the number of lattice samples taken (0xFFFFFFFF where the index was found corrupt).
+// Push constants: max level (the cut), the brick buffer's word count (its parts are split).
+// Specialization constants: 0 split shift of the bricks, 1 parts holding data (1: fast loads).
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
+layout(constant_id = 1) const uint BRICK_PARTS = 4u;
+
+#include "sylva/shared/split_words.glsl"
+SYLVA_SPLIT_WORDS_COUNTED(bricks, 0, SPLIT_SHIFT, BRICK_PARTS)
+layout(std430, binding = 4) readonly buffer Index { uint index_words[]; };
+layout(std430, binding = 5) readonly buffer Tf { uint tf_words[]; };
+layout(std430, binding = 6) readonly buffer TfSum { uint tfsum_words[]; };
+layout(std430, binding = 7) readonly buffer Params { uint param_words[]; };
+layout(std430, binding = 8) writeonly buffer Pixels { uint pixels[]; };
+layout(push_constant) uniform Push {
+    uint max_level;
+    uint brick_buffer_words;
+} pc;
+
+uint sylva_load_words(uint i) { return i < uint(index_words.length()) ? index_words[i] : 0u; }
+uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
+uint sylva_load_tfsum(uint i) { return i < uint(tfsum_words.length()) ? tfsum_words[i] : 0u; }
+uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+// grid_sample.h (whose arithmetic the bricks reuse) declares grid reads too; none happen here.
+uint sylva_load_grid(uint i) { return 0u; }
+
+#include "sylva/shared/camera.h"
+#include "sylva/shared/octree_dvr.h"
+
+void main() {
+    SylvaDvrParams p = sylva_dvr_params(0u);
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= p.width || px.y >= p.height) return;
+    vec3 eye = sylva_param_v3(0u, 0u);
+    vec3 w = sylva_param_v3(0u, 3u);
+    vec3 u = sylva_param_v3(0u, 6u);
+    vec3 v = sylva_param_v3(0u, 9u);
+    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, p.width, p.height);
+    SylvaOctHeader h = sylva_oct_read_header(0u, uint(index_words.length()), pc.brick_buffer_words);
+    uint steps;
+    uint visits;
+    uint status;
+    vec4 c = sylva_oct_dvr_ray(0u, 0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), steps, visits, status);
+    uint at = (px.y * p.width + px.x) * 5u;
+    pixels[at] = floatBitsToUint(c.x);
+    pixels[at + 1u] = floatBitsToUint(c.y);
+    pixels[at + 2u] = floatBitsToUint(c.z);
+    pixels[at + 3u] = floatBitsToUint(c.w);
+    pixels[at + 4u] = (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps;
+}
