@@ -140,3 +140,43 @@ TEST_CASE("GPU particle images match the host within 1e-5 and visit the same nod
         CHECK(total_alpha > 100.0f);  // the galaxy is in view
     }
 }
+
+namespace {
+/// Range payloads claiming another kind, or starting 2^29 records on (e * 8 wraps to the real ones).
+template <std::uint32_t Kind, std::uint32_t Offset>
+struct ShiftedRange {
+    static constexpr std::uint32_t kind = Kind;
+    template <Bounded E>
+    [[nodiscard]] std::uint64_t encode(std::span<const E> leaf, std::uint32_t first) const {
+        return bih::RangePayload{}.encode(leaf, first + Offset);
+    }
+};
+}  // namespace
+
+TEST_CASE("the GPU particle renderer refuses non-particle payload kinds and wrapped record indices",
+          "[parity][vulkan][payload-kind]") {
+    using Catch::Matchers::Contains;
+    vk::Context ctx = vk::Context::create();
+    auto spheres = io::synthetic_galaxy(2000, 7);
+    std::span<const Sphere> es(spheres);
+    bih::Tree t = bih::build(es);
+    auto records = pack_particles(es, t.order);
+    CameraFrame cam = Camera::framing(t.bounds).frame(32, 24);
+    auto voxel = bih::encode(t, es, ShiftedRange<SYLVA_PAYLOAD_VOXEL, 0>{});
+    vk::DeviceBih vdev(ctx, voxel);
+    CHECK_THROWS_WITH(vk::render_particles_vulkan(ctx, vdev, records, cam, 32, 24), Contains("payload kind 2"));
+
+    // Ranges 2^29 records on: every ray that reaches a leaf ends with an error on both targets.
+    auto far = bih::encode(t, es, ShiftedRange<SYLVA_PAYLOAD_RANGE, (1u << 29)>{});
+    SerialExecutor serial;
+    Frame host = render_particles_cpu(far, records, cam, 32, 24, serial);
+    vk::DeviceBih fdev(ctx, far);
+    Frame gpu = vk::render_particles_vulkan(ctx, fdev, records, cam, 32, 24);
+    CHECK(host.steps == gpu.steps);
+    std::size_t errors = 0;
+    for (std::size_t i = 0; i < gpu.steps.size(); ++i) {
+        errors += gpu.steps[i] == 0xFFFFFFFFu;
+        CHECK(gpu.rgba[i].a == 0.0f);
+    }
+    CHECK(errors > 20);  // the rays that reach a leaf (72 of 768 here)
+}

@@ -8,6 +8,7 @@
 #include <sylva/bih/encode.hpp>
 #include <sylva/elements/rbf.hpp>
 #include <sylva/elements/sphere.hpp>
+#include <sylva/render/particles.hpp>
 
 #include "generators.hpp"
 
@@ -102,4 +103,74 @@ TEST_CASE("BIH particle integrator equals sorted brute-force compositing", "[par
     // Inline leaves quantise the particle's box to 1/32768 of the scene. The kernel is cut off
     // at r, so rays grazing the rim within that step flip in or out; all others agree closely.
     CHECK(inline_off < samples / 200);
+}
+
+namespace {
+/// Range payloads that claim a different kind (a LoD or voxel encoding) or start 2^29 records
+/// further on (where e * 8 wraps around 32 bits to the real records).
+template <std::uint32_t Kind, std::uint32_t Offset>
+struct ShiftedRange {
+    static constexpr std::uint32_t kind = Kind;
+    template <Bounded E>
+    [[nodiscard]] std::uint64_t encode(std::span<const E> leaf, std::uint32_t first) const {
+        return bih::RangePayload{}.encode(leaf, first + Offset);
+    }
+};
+
+struct ParticleScene {
+    std::vector<Sphere> ps;
+    bih::Tree t;
+    std::vector<std::uint32_t> records;
+    ParticleScene() {
+        for (int x = 0; x < 4; ++x)
+            for (int y = 0; y < 4; ++y) ps.push_back({{x + 0.5f, y + 0.5f, 0.5f}, 0.45f, {1.0f, 0.5f, 0.25f, 0.8f}, 1.0f});
+        t = bih::build(std::span<const Sphere>(ps));
+        records = pack_particles(std::span<const Sphere>(ps), t.order);
+    }
+    template <class P>
+    std::vector<std::uint32_t> words(const P& p) const {
+        return bih::encode(t, std::span<const Sphere>(ps), p, {bih::NodeFormat::Float32, bih::Layout::TreeChunks, 2});
+    }
+};
+}  // namespace
+
+TEST_CASE("the particle integrators refuse an encoding whose payload kind is not a particle kind",
+          "[particles][payload-kind]") {
+    using Catch::Matchers::Contains;
+    ParticleScene s;
+    CameraFrame cam = Camera::framing(s.t.bounds).frame(8, 8);
+    SerialExecutor serial;
+    auto voxel = s.words(ShiftedRange<SYLVA_PAYLOAD_VOXEL, 0>{});
+    CHECK_THROWS_WITH(render_particles_cpu(voxel, s.records, cam, 8, 8, serial),
+                      Contains("payload kind 2") && Contains("particle"));
+    auto user = s.words(ShiftedRange<200u, 0>{});
+    CHECK_THROWS_WITH(render_particles_cpu(user, s.records, cam, 8, 8, serial), Contains("payload kind 200"));
+    // The shared integrator itself (what the shader runs) ends with an error, drawing nothing.
+    shared::Words w{voxel.data(), voxel.size()}, el{s.records.data(), s.records.size()};
+    std::uint32_t steps = 0, status = 0;
+    vec4 c = shared::sylva_render_particles(w, static_cast<std::uint32_t>(voxel.size()), el, {0.5f, 0.5f, -5.0f},
+                                            {0.0f, 0.0f, 1.0f}, 0.0f, 1e30f, 0.99f, steps, status);
+    CHECK(status == SYLVA_ITER_ERROR);
+    CHECK(c == vec4(0.0f));
+    // The genuine kinds still render.
+    CHECK_NOTHROW(render_particles_cpu(s.words(bih::RangePayload{}), s.records, cam, 8, 8, serial));
+    CHECK_NOTHROW(render_particles_cpu(s.words(ParticlePayload{}), {}, cam, 8, 8, serial));
+}
+
+TEST_CASE("range leaves at or past 2^29 records are an error, not an index wrapped around 32 bits",
+          "[particles][index-math]") {
+    ParticleScene s;
+    auto good = s.words(bih::RangePayload{});
+    auto far = s.words(ShiftedRange<SYLVA_PAYLOAD_RANGE, (1u << 29)>{});  // e * 8 wraps to the real records
+    shared::Words gw{good.data(), good.size()}, fw{far.data(), far.size()}, el{s.records.data(), s.records.size()};
+    Ray r{{0.5f, 0.5f, -5.0f}, {0.0f, 0.0f, 1.0f}};
+    std::uint32_t steps = 0, status = 0;
+    vec4 want = shared::sylva_render_particles(gw, static_cast<std::uint32_t>(good.size()), el, r.origin, r.direction,
+                                               0.0f, 1e30f, 0.99f, steps, status);
+    REQUIRE(status != SYLVA_ITER_ERROR);
+    REQUIRE(want.a > 0.1f);
+    vec4 got = shared::sylva_render_particles(fw, static_cast<std::uint32_t>(far.size()), el, r.origin, r.direction,
+                                              0.0f, 1e30f, 0.99f, steps, status);
+    CHECK(status == SYLVA_ITER_ERROR);
+    CHECK(got.a == 0.0f);
 }

@@ -6,8 +6,10 @@
 #include <chrono>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
+#include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
 #include "sylva/render/camera.hpp"
 #include "sylva/shared/particles.h"
@@ -29,12 +31,33 @@ struct ParticleRenderConfig {
     float alpha_stop = 0.99f;
 };
 
+/// Throws sylva::Error unless `kind` (an encoded BIH's payload kind, header bits 8-15) is one the
+/// particle integrator draws: SYLVA_PAYLOAD_RANGE (records in `records`, 8 words each, at most
+/// SYLVA_PARTICLE_MAX_RECORDS of them) or SYLVA_PAYLOAD_PARTICLE_RGBA (inline). A LoD or voxel
+/// BIH, or a user kind, would otherwise be drawn as garbage.
+inline void check_particle_payload(std::uint32_t kind, std::size_t record_words, const char* who) {
+    if (kind != SYLVA_PAYLOAD_RANGE && kind != SYLVA_PAYLOAD_PARTICLE_RGBA)
+        throw Error(std::string(who) + ": the BIH's payload kind " + std::to_string(kind) +
+                    (kind == SYLVA_PAYLOAD_VOXEL ? " (voxel / LoD)" : "") +
+                    " is not a particle kind (0: record ranges, 1: inline RGBA particles)");
+    if (kind == SYLVA_PAYLOAD_RANGE && record_words % SYLVA_PARTICLE_WORDS != 0)
+        throw Error(std::string(who) + ": " + std::to_string(record_words) +
+                    " record words are not a whole number of 8-word particle records");
+    if (kind == SYLVA_PAYLOAD_RANGE && record_words / SYLVA_PARTICLE_WORDS > SYLVA_PARTICLE_MAX_RECORDS)
+        throw Error(std::string(who) + ": " + std::to_string(record_words / SYLVA_PARTICLE_WORDS) +
+                    " particle records are more than 32-bit word indices address (2^29)");
+}
+
 /// Renders `words` (an encoded particle BIH) with `records` (pack_particles output; empty for
-/// inline payloads) on the host.
+/// inline payloads) on the host. Throws sylva::Error when the encoding's payload kind is not a
+/// particle kind (check_particle_payload); a corrupted encoding instead marks its pixels'
+/// steps 0xFFFFFFFF.
 template <Executor X>
 Frame render_particles_cpu(std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
                            const CameraFrame& cam, std::uint32_t width, std::uint32_t height, X& exec,
                            const ParticleRenderConfig& cfg = {}) {
+    if (words.size() >= SYLVA_BIH_HEADER_WORDS && words[0] == SYLVA_BIH_MAGIC)
+        check_particle_payload((words[2] >> 8) & 255u, records.size(), "render_particles_cpu");
     auto start = std::chrono::steady_clock::now();
     Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};

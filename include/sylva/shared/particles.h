@@ -22,6 +22,9 @@
 
 #define SYLVA_PARTICLE_WORDS 8u
 #define SYLVA_LEAF_SORT 8u
+/// Most records a range payload may address: record e's last word, e * 8 + 7, must fit 32 bits
+/// (GLSL has no 64-bit integers by default). Leaves reaching past it end the ray with an error.
+#define SYLVA_PARTICLE_MAX_RECORDS 0x20000000u
 
 SYLVA_BEGIN_NAMESPACE
 
@@ -86,8 +89,16 @@ SYLVA_FN void sylva_elem_add(SYLVA_INOUT(SylvaComposite) acc, SYLVA_BUF(elems), 
     sylva_particle_add(acc, c, r, kappa, SYLVA_LOAD(elems, at + 5u), o, d, t0, t1);
 }
 
+/// True when a range leaf's records [first, first + count) all lie below
+/// SYLVA_PARTICLE_MAX_RECORDS, so `e * SYLVA_PARTICLE_WORDS` cannot wrap (checked before any
+/// multiplication; reads past the record buffer itself are caught by the load).
+SYLVA_FN bool sylva_range_addressable(uint first, uint count) {
+    return first < SYLVA_PARTICLE_MAX_RECORDS && count <= SYLVA_PARTICLE_MAX_RECORDS - first;
+}
+
 /// Composites the elements [first, first + count) of a range leaf, nearest t_c first when the
-/// leaf holds at most SYLVA_LEAF_SORT of them (selection by (t_c, index)), in storage order otherwise.
+/// leaf holds at most SYLVA_LEAF_SORT of them (selection by (t_c, index)), in storage order
+/// otherwise. Callers check sylva_range_addressable(first, count) first.
 SYLVA_FN void sylva_range_leaf(SYLVA_INOUT(SylvaComposite) acc, SYLVA_BUF(elems), uint first, uint count, vec3 o,
                                vec3 d, float t0, float t1) {
     if (count > SYLVA_LEAF_SORT) {
@@ -126,12 +137,19 @@ SYLVA_FN void sylva_inline_leaf(SYLVA_INOUT(SylvaComposite) acc, uvec2 payload, 
 
 /// Renders one ray through a particle BIH; returns premultiplied RGB and opacity. `steps`
 /// receives the number of nodes visited (the heat map), `status` the iterator's final status.
+/// Encodings whose payload kind is neither SYLVA_PAYLOAD_RANGE nor SYLVA_PAYLOAD_PARTICLE_RGBA
+/// (a LoD or voxel BIH, a user kind), and range leaves past SYLVA_PARTICLE_MAX_RECORDS, end
+/// with status SYLVA_ITER_ERROR; a wrong kind draws nothing.
 SYLVA_FN vec4 sylva_render_particles(SYLVA_BUF(words), uint word_count, SYLVA_BUF(elems), vec3 o, vec3 d,
                                      float t_min, float t_max, float alpha_stop, SYLVA_OUT(uint) steps,
                                      SYLVA_OUT(uint) status) {
     SylvaBihIter it;
     sylva_bih_init(it, SYLVA_PASS_BUF(words), word_count, o, d, t_min, t_max);
-    bool inline_leaves = ((it.hdr.flags >> 8u) & 255u) == SYLVA_PAYLOAD_PARTICLE_RGBA;
+    uint kind = (it.hdr.flags >> 8u) & 255u;
+    bool inline_leaves = kind == SYLVA_PAYLOAD_PARTICLE_RGBA;
+    if (it.status != SYLVA_ITER_ERROR && !inline_leaves && kind != SYLVA_PAYLOAD_RANGE) {
+        it.status = SYLVA_ITER_ERROR;  // not a particle encoding: its payloads are no record ranges
+    }
     SylvaComposite acc;
     acc.rgb = vec3(0.0f);
     acc.alpha = 0.0f;
@@ -143,8 +161,11 @@ SYLVA_FN vec4 sylva_render_particles(SYLVA_BUF(words), uint word_count, SYLVA_BU
         if (inline_leaves) {
             sylva_inline_leaf(acc, p, sylva_bih_to_world(it.hdr, it.leaf_lo), sylva_bih_to_world(it.hdr, it.leaf_hi),
                               o, d, t_min, t_max);
-        } else {
+        } else if (sylva_range_addressable(p.x, p.y)) {
             sylva_range_leaf(acc, SYLVA_PASS_BUF(elems), p.x, p.y, o, d, t_min, t_max);
+        } else {
+            it.status = SYLVA_ITER_ERROR;
+            break;
         }
     }
     steps = it.steps;

@@ -28,8 +28,11 @@ public:
         if (words.size() < SYLVA_BIH_HEADER_WORDS || words[0] != SYLVA_BIH_MAGIC)
             throw Error("vk::DeviceBih: not an encoded BIH");
         depth_ = words[4];
+        kind_ = (words[2] >> 8) & 255u;
         if (depth_ > SYLVA_BIH_DEPTH_CAP) throw Error("vk::DeviceBih: depth over the cap");
     }
+    /// The payload kind (header bits 8-15).
+    [[nodiscard]] std::uint32_t kind() const { return kind_; }
     /// Specialization constants: split shift, and a stack sized to the tree's depth.
     [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {words_.shift, std::max(depth_, 1u)}; }
     [[nodiscard]] std::uint32_t word_count() const { return word_count_; }
@@ -39,6 +42,7 @@ private:
     SplitWords words_;
     std::uint32_t word_count_;
     std::uint32_t depth_ = 0;
+    std::uint32_t kind_ = 0;
 };
 
 /// Leaf sequences the GPU iterator yields per ray, in the layout of shaders/bih_leaves.comp
@@ -65,10 +69,12 @@ inline std::vector<std::uint32_t> leaf_sequences(Context& ctx, DeviceBih& bih, s
     return out;
 }
 
-/// Renders an encoded particle BIH on the device; same output as render_particles_cpu.
+/// Renders an encoded particle BIH on the device; same output as render_particles_cpu. Throws
+/// sylva::Error when the encoding's payload kind is not a particle kind (check_particle_payload).
 inline Frame render_particles_vulkan(Context& ctx, DeviceBih& bih, std::span<const std::uint32_t> records,
                                      const CameraFrame& cam, std::uint32_t width, std::uint32_t height,
                                      const ParticleRenderConfig& cfg = {}) {
+    check_particle_payload(bih.kind(), records.size(), "render_particles_vulkan");
     Buffer elems(ctx, records.size() * 4), out_buf(ctx, std::size_t{width} * height * 5 * 4);
     if (!records.empty()) elems.upload(records);
     auto constants = bih.constants();
