@@ -121,3 +121,12 @@ TEST_CASE("a corrupted link cycle cannot loop the iterator forever (steps are bo
         CHECK(n < 10000000);
     }
 }
+
+TEST_CASE("brute_force_hits refuses more elements than its 32-bit element index counts", "[bad-input][index-math]") {
+    // A span claiming 2^32 + 1 elements over one real one: the count is checked before any
+    // element is read (a 32-bit loop counter used to wrap at 2^32 and never end).
+    std::vector<Sphere> one{Sphere{{0.0f, 0.0f, 0.0f}, 1.0f}};
+    std::span<const Sphere> huge(one.data(), (std::size_t{1} << 32) + 1);
+    CHECK_THROWS_WITH(bih::brute_force_hits(huge, Ray{{0.0f, 0.0f, -5.0f}, {0.0f, 0.0f, 1.0f}}),
+                      Contains("4294967297 elements"));
+}

@@ -701,11 +701,15 @@ void all_hits(std::span<const std::uint32_t> words, const LeafRecords<E>& record
 }
 
 /// Brute-force reference: tests every element. What the queries must reproduce exactly.
+/// Throws sylva::Error when there are more elements than ElementHit's 32-bit index can name.
 template <Intersectable E>
 std::vector<ElementHit> brute_force_hits(std::span<const E> elements, const Ray& ray, Interval range = {}) {
+    if (elements.size() > std::size_t{0xFFFFFFFFu})
+        throw Error("bih::brute_force_hits: " + std::to_string(elements.size()) +
+                    " elements are more than a 32-bit element index names");
     std::vector<ElementHit> hits;
-    for (std::uint32_t e = 0; e < elements.size(); ++e)
-        if (auto t = intersect_element(elements[e], ray, range)) hits.push_back({e, *t});
+    for (std::size_t e = 0; e < elements.size(); ++e)
+        if (auto t = intersect_element(elements[e], ray, range)) hits.push_back({static_cast<std::uint32_t>(e), *t});
     std::sort(hits.begin(), hits.end(), hit_before);
     return hits;
 }
