@@ -15,10 +15,19 @@
 //  * Bit-exact host/GPU parity: use sylva_safe_rcp, canonicalise signed zero with sylva_canon
 //    (integer bit operations: lavapipe may fold `x + 0.0f`), compile host code with
 //    -ffp-contract=off, no fma.
+//  * Host compiler flags: the shared code needs IEEE float semantics. -ffast-math (and
+//    -Ofast, which implies it) is refused below with an #error, through the __FAST_MATH__
+//    macro GCC and Clang define for it. -ffp-contract=off cannot be detected portably (no
+//    compiler defines a macro for it), so the sylva::sylva CMake target adds it; code built
+//    outside that target must pass -ffp-contract=off itself (MSVC: /fp:precise, the default),
+//    or fused multiply-adds break bit-exact parity with the GPU without any error.
 #ifndef SYLVA_SHARED_LANG_H
 #define SYLVA_SHARED_LANG_H
 
 #ifdef __cplusplus
+#if defined(__FAST_MATH__)
+#error "sylva: the shared C++/GLSL headers need IEEE float semantics: do not compile them with -ffast-math or -Ofast (they also need -ffp-contract=off, which the sylva::sylva CMake target adds; pass it yourself outside it)"
+#endif
 #include <cstdint>
 #include <cstddef>
 #include <glm/glm.hpp>
