@@ -7,6 +7,7 @@
 
 #include <sylva/render/metrics.hpp>
 
+#include "../missing_data.hpp"
 #include "dvr_fixtures.hpp"
 
 using namespace sylva;
@@ -14,19 +15,12 @@ using namespace sylva::dvrtest;
 
 namespace {
 
-/// The lobster as normalised densities, or nothing when the file is missing and
-/// SYLVA_ALLOW_MISSING_DATA=1 (otherwise a missing file fails the test, naming the path).
+/// The lobster as normalised densities; a missing file fails the test naming the path, or with
+/// SYLVA_ALLOW_MISSING_DATA=1 ends it as skipped (tests/missing_data.hpp).
 std::optional<volume::DensityGrid> lobster() {
-    std::string path = std::string(SYLVA_DATA_DIR) + "/lobster_301x324x56_uint8.raw";
+    std::string path = testdata::require("lobster_301x324x56_uint8.raw").string();
     std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        const char* allow = std::getenv("SYLVA_ALLOW_MISSING_DATA");
-        if (allow != nullptr && std::string(allow) == "1") {
-            WARN("missing test data " << path << " (SYLVA_ALLOW_MISSING_DATA=1: skipped)");
-            return std::nullopt;
-        }
-        FAIL("missing test data " << path << " (set SYLVA_ALLOW_MISSING_DATA=1 to skip)");
-    }
+    REQUIRE(in);
     volume::Dims dims{301, 324, 56};
     std::vector<unsigned char> raw(volume::voxel_count(dims));
     in.read(reinterpret_cast<char*>(raw.data()), std::streamsize(raw.size()));

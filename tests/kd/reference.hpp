@@ -17,6 +17,8 @@
 #include <sylva/kdtree/tree.hpp>
 #include <sylva/volume/occupancy.hpp>
 
+#include "../missing_data.hpp"
+
 namespace sylva::kdtest {
 
 using volume::Dims;
@@ -175,19 +177,9 @@ inline std::vector<Ray> make_rays(volume::Dims d, std::size_t n, std::uint32_t s
     return rays;
 }
 
-/// Path of a data file, or "" after a WARN when missing and SYLVA_ALLOW_MISSING_DATA=1;
-/// otherwise a missing file FAILs naming the path.
-inline std::string data_file(const std::string& name) {
-    std::filesystem::path p = std::filesystem::path(SYLVA_DATA_DIR) / name;
-    if (std::filesystem::exists(p)) return p.string();
-    const char* allow = std::getenv("SYLVA_ALLOW_MISSING_DATA");
-    if (allow && std::string(allow) == "1") {
-        WARN("missing test data " << p.string() << " (SYLVA_ALLOW_MISSING_DATA=1)");
-        return "";
-    }
-    FAIL("missing test data " << p.string() << " (set SYLVA_ALLOW_MISSING_DATA=1 to skip)");
-    return "";
-}
+/// Path of a data file; a missing file FAILs the test naming the path, or with
+/// SYLVA_ALLOW_MISSING_DATA=1 ends it as skipped (tests/missing_data.hpp).
+inline std::string data_file(const std::string& name) { return testdata::require(name).string(); }
 
 }  // namespace sylva::kdtest
 

@@ -273,11 +273,7 @@ TEST_CASE("vk::KdRebuilder gives kdtree::Rebuilder's trees over a replay", "[par
 }
 
 TEST_CASE("device local boxes of the aneurism", "[parity][kd][data]") {
-    std::filesystem::path p = std::filesystem::path(SYLVA_DATA_DIR) / "aneurism_256x256x256_uint8.raw";
-    if (!std::filesystem::exists(p)) {
-        WARN("aneurism missing at " << p.string() << ": test skipped");
-        return;
-    }
+    std::filesystem::path p = testdata::require("aneurism_256x256x256_uint8.raw");  // fails (or skips) when missing
     vk::Context ctx = vk::Context::create();
     volume::Volume v = volume::read_raw(p, volume::parse_raw_name(p.filename().string()));
     ThreadPool pool(2);

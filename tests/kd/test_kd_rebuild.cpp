@@ -310,11 +310,7 @@ TEST_CASE("rebuild: bad input", "[kd][rebuild]") {
 }
 
 TEST_CASE("rebuild: aneurism under a replay of transfer functions", "[kd][rebuild][data]") {
-    std::filesystem::path p = std::filesystem::path(SYLVA_DATA_DIR) / "aneurism_256x256x256_uint8.raw";
-    if (!std::filesystem::exists(p)) {
-        WARN("aneurism missing at " << p.string() << ": test skipped");
-        return;
-    }
+    std::filesystem::path p = testdata::require("aneurism_256x256x256_uint8.raw");  // fails (or skips) when missing
     volume::Volume v = volume::read_raw(p, volume::parse_raw_name(p.filename().string()));
     ThreadPool pool(2);
     for (const Config& cfg : {Config::deep().binned(), Config::shallow()}) {

@@ -18,6 +18,8 @@
 #include <sylva/volume/grid.hpp>
 #include <sylva/volume/read_raw.hpp>
 
+#include "../missing_data.hpp"
+
 namespace sylva::lodtest {
 
 /// Quantises to 8 bits like the real volumes, so uniform regions are exactly uniform.
@@ -80,21 +82,14 @@ inline std::vector<std::uint32_t> node_depths(const bih::Tree& t) {
 }
 
 /// Path of a data file in ../shared/data.
-inline std::string data_path(const std::string& name) { return std::string(SYLVA_DATA_DIR) + "/" + name; }
+inline std::string data_path(const std::string& name) { return (testdata::dir() / name).string(); }
 
 /// An 8-bit raw volume from ../shared/data, normalised (value / 255). When the file is missing
-/// the test FAILS naming the path, unless SYLVA_ALLOW_MISSING_DATA=1 (then it WARNs and
-/// returns nothing).
+/// the test FAILS naming the path, or with SYLVA_ALLOW_MISSING_DATA=1 ends as skipped
+/// (tests/missing_data.hpp); the optional is never empty.
 inline std::optional<volume::DensityGrid> load_u8(const std::string& name, volume::Dims dims, vec3 spacing) {
     std::string path = data_path(name);
-    if (!std::filesystem::exists(path)) {
-        const char* allow = std::getenv("SYLVA_ALLOW_MISSING_DATA");
-        if (allow && std::string(allow) == "1") {
-            WARN("data file missing, test skipped: " << path);
-            return std::nullopt;
-        }
-        FAIL("data file missing: " << path << " (set SYLVA_ALLOW_MISSING_DATA=1 to skip)");
-    }
+    if (!std::filesystem::exists(path)) testdata::missing(path);
     // Normalised by 255 as Kinkelin's tables are (the type range, whatever the data's max).
     return volume::normalize(volume::read_raw(path, {dims, volume::ScalarType::U8, spacing}, volume::ValueRange::of_type()));
 }

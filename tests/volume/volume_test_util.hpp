@@ -15,6 +15,8 @@
 
 #include <unistd.h>
 
+#include "../missing_data.hpp"
+
 namespace volume_test {
 
 /// A fresh folder under the system temp folder, removed with everything in it at scope exit.
@@ -61,19 +63,9 @@ std::string as_bytes(const std::vector<T>& v) {
     return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
 }
 
-/// Path of a file in ../shared/data, or nullopt (with a warning) when it is missing and
-/// SYLVA_ALLOW_MISSING_DATA=1; when it is missing otherwise, the test fails naming the path.
-inline std::optional<std::filesystem::path> data_file(const std::string& name) {
-    std::filesystem::path p = std::filesystem::path(SYLVA_DATA_DIR) / name;
-    if (std::filesystem::exists(p)) return p;
-    const char* allow = std::getenv("SYLVA_ALLOW_MISSING_DATA");
-    if (allow && std::string(allow) == "1") {
-        WARN("data file " << p.string() << " is missing; skipped (SYLVA_ALLOW_MISSING_DATA=1)");
-        return std::nullopt;
-    }
-    FAIL("data file " << p.string() << " is missing (set SYLVA_ALLOW_MISSING_DATA=1 to skip tests that need it)");
-    return std::nullopt;
-}
+/// Path of a file in ../shared/data; a missing file fails the test naming the path, or with
+/// SYLVA_ALLOW_MISSING_DATA=1 ends it as skipped (tests/missing_data.hpp). Never nullopt.
+inline std::optional<std::filesystem::path> data_file(const std::string& name) { return sylva::testdata::require(name); }
 
 }  // namespace volume_test
 
