@@ -195,3 +195,21 @@ TEST_CASE("a 12-bit CT in uint16: the default range shows it, the type range hid
     DensityGrid typed = normalize(read_volume(dir / "ct_16x16x16_uint16.raw", std::nullopt, ValueRange::of_type()));
     CHECK(voxel_cuboids(typed, 0.1f).empty());  // 3926 / 65535 = 0.06: the issue's "nothing to build"
 }
+
+TEST_CASE("finite float32 voxels near +-FLT_MAX: a range too wide for float32 is refused for that reason",
+          "[range][errors]") {
+    const float big = 3.4e38f;
+    Volume v = volume_of(ScalarType::F32, std::vector<float>{-big, 0.0f, big});
+    // The data's range [-3.4e38, 3.4e38] is finite, but hi - lo overflows float32: no density
+    // can be computed from it. Refused naming that, not as a NaN or non-finite voxel.
+    CHECK_THROWS_WITH(apply_value_range(v, ValueRange{}, "v"),
+                      Contains("v:") && Contains("too wide") && !Contains("NaN") && !Contains("not a finite"));
+    // An explicit range the voxels fit: accepted, and the extremes clamp to 0 and 1.
+    apply_value_range(v, ValueRange::between(-1.0f, 1.0f), "v");
+    DensityGrid g = normalize(v);
+    CHECK(g.values == std::vector<float>{0.0f, 0.5f, 1.0f});
+    // One-sided voxels of the same size are fine: the span fits.
+    Volume one = volume_of(ScalarType::F32, std::vector<float>{0.0f, big});
+    apply_value_range(one, ValueRange{}, "one");
+    CHECK(normalize(one).values == std::vector<float>{0.0f, 1.0f});
+}

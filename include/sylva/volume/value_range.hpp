@@ -89,8 +89,8 @@ inline const char* range_source_name(RangeSource s) {
 inline std::pair<float, float> data_min_max(const Volume& v, const std::string& what = "volume");
 
 /// The range `r` selects for `v` and where it came from (nothing is changed). Throws
-/// sylva::Error starting with `what` for a NaN/inf float32 voxel, and when a stated range is
-/// not finite with lo < hi.
+/// sylva::Error starting with `what` for a NaN/inf float32 voxel, when a stated range is
+/// not finite with lo < hi, and when the chosen range is too wide for float32 (hi - lo overflows).
 inline std::pair<std::pair<float, float>, RangeSource> choose_range(const Volume& v, const ValueRange& r,
                                                                     const std::string& what = "volume");
 
@@ -157,14 +157,28 @@ inline std::pair<float, float> data_min_max(const Volume& v, const std::string& 
     }
 }
 
+namespace detail::range {
+/// Throws unless hi - lo is a finite float32: densities are (v - lo) / (hi - lo) on the host and
+/// the GPU alike, so a finite range wider than FLT_MAX (voxels near -3.4e38 and +3.4e38) has no
+/// density for anything (it used to surface later as a NaN density).
+inline std::pair<std::pair<float, float>, RangeSource> fits(std::pair<float, float> p, RangeSource source,
+                                                           const std::string& what) {
+    if (!std::isfinite(p.second - p.first))
+        throw Error(what + ": the value range [" + std::to_string(p.first) + ", " + std::to_string(p.second) +
+                    "] is too wide for float32 (max - min overflows); give a narrower range explicitly (LO,HI)");
+    return {p, source};
+}
+}  // namespace detail::range
+
 inline std::pair<std::pair<float, float>, RangeSource> choose_range(const Volume& v, const ValueRange& r,
                                                                     const std::string& what) {
     using P = std::pair<float, float>;
+    using detail::range::fits;
     if (r.mode == ValueRange::Mode::Explicit) {
         if (!std::isfinite(r.lo) || !std::isfinite(r.hi) || !(r.lo < r.hi))
             throw Error(what + ": explicit value range [" + std::to_string(r.lo) + ", " + std::to_string(r.hi) +
                         "] is not finite with LO < HI");
-        return {P{r.lo, r.hi}, RangeSource::Explicit};
+        return fits(P{r.lo, r.hi}, RangeSource::Explicit, what);
     }
     if (r.mode == ValueRange::Mode::Type && v.type == ScalarType::U8) return {P{0.0f, 255.0f}, RangeSource::Type};
     if (r.mode == ValueRange::Mode::Type && v.type == ScalarType::U16) return {P{0.0f, 65535.0f}, RangeSource::Type};
@@ -176,9 +190,9 @@ inline std::pair<std::pair<float, float>, RangeSource> choose_range(const Volume
         if (!std::isfinite(s.first) || !std::isfinite(s.second) || !(s.first < s.second))
             throw Error(what + ": stated value range [" + std::to_string(s.first) + ", " + std::to_string(s.second) +
                         "] is not finite with min < max");
-        return {s, RangeSource::Stated};
+        return fits(s, RangeSource::Stated, what);
     }
-    if (data.first < data.second) return {data, RangeSource::Data};
+    if (data.first < data.second) return fits(data, RangeSource::Data, what);
     float c = data.first;
     if (c == 0.0f) return {P{0.0f, 1.0f}, RangeSource::Constant};
     return {P{std::min(c, 0.0f), std::max(c, 0.0f)}, RangeSource::Constant};
