@@ -8,6 +8,7 @@
 #include <sylva/bih/encode.hpp>
 #include <sylva/elements/rbf.hpp>
 #include <sylva/elements/sphere.hpp>
+#include <sylva/io/particles.hpp>
 #include <sylva/render/particles.hpp>
 
 #include "generators.hpp"
@@ -173,4 +174,26 @@ TEST_CASE("range leaves at or past 2^29 records are an error, not an index wrapp
                                               0.0f, 1e30f, 0.99f, steps, status);
     CHECK(status == SYLVA_ITER_ERROR);
     CHECK(got.a == 0.0f);
+}
+
+TEST_CASE("particles with large finite coordinates get finite radii and build; beyond float32's reach they are refused for it",
+          "[particles][io]") {
+    using Catch::Matchers::Contains;
+    for (float scale : {7e12f, 1e15f, 1e19f, 1e30f}) {
+        INFO("scale " << scale);
+        std::vector<vec3> pts;
+        for (int i = 0; i < 64; ++i)
+            pts.push_back(vec3(float(i % 4), float((i / 4) % 4), float(i / 16)) * (scale / 4.0f));
+        std::vector<Sphere> ps = io::spheres_from_points(pts);
+        REQUIRE(ps.size() == pts.size());
+        CHECK(std::isfinite(ps[0].radius));
+        CHECK(ps[0].radius == Approx(0.25f * 0.75f * scale / 4.0f).epsilon(1e-4));  // a quarter of the mean spacing
+        for (const Sphere& s : ps)
+            for (int k = 0; k < 4; ++k) REQUIRE(std::isfinite(s.rgba[k]));
+        CHECK_NOTHROW(bih::build(std::span<const Sphere>(ps)));
+    }
+    // Points spanning the whole float32 range: their spheres would reach past it.
+    std::vector<vec3> edge{vec3(-3.4e38f), vec3(3.4e38f), vec3(0.0f)};
+    CHECK_THROWS_WITH(io::spheres_from_points(edge), Contains("particle") && Contains("float32 range") &&
+                                                         !Contains("NaN"));
 }

@@ -3,6 +3,7 @@
 #ifndef SYLVA_IO_PARTICLES_HPP
 #define SYLVA_IO_PARTICLES_HPP
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -62,24 +63,35 @@ struct ParticleStyle {
     float kappa = 2.0f;
 };
 
-/// Spheres at `points`, coloured by distance from their centroid (warm core, cool halo).
+/// Spheres at `points`, coloured by distance from their centroid (warm core, cool halo). The
+/// box volume, mean spacing and distances are computed in double, so finite coordinates of any
+/// size give finite radii (float32 products overflowed from about 7e12 on). Throws sylva::Error
+/// when a sphere would reach past the float32 range (points near +-3.4e38), naming the point.
 inline std::vector<Sphere> spheres_from_points(const std::vector<vec3>& points, const ParticleStyle& style = {}) {
+    using dvec = glm::dvec3;
     Aabb box;
-    vec3 mean{0.0f};
+    dvec mean{0.0};
     for (const vec3& p : points) {
         box.extend(p);
-        mean += p / static_cast<float>(points.size());
+        mean += dvec(p) / static_cast<double>(points.size());
     }
-    vec3 e = glm::max(box.extent(), vec3(1e-6f * (1.0f + glm::length(box.extent()))));
-    float spacing = std::cbrt(e.x * e.y * e.z / static_cast<float>(points.size()));
-    float r = style.spacing_factor > 0.0f ? style.spacing_factor * spacing : style.radius;
-    float reach = 0.5f * glm::length(e);
+    dvec ext = dvec(box.hi) - dvec(box.lo);
+    dvec e = glm::max(ext, dvec(1e-6 * (1.0 + glm::length(ext))));
+    double spacing = std::cbrt(e.x * e.y * e.z / static_cast<double>(points.size()));
+    double r = style.spacing_factor > 0.0f ? double(style.spacing_factor) * spacing : double(style.radius);
+    double reach = 0.5 * glm::length(e);
+    auto radius = static_cast<float>(r);
     std::vector<Sphere> out;
     out.reserve(points.size());
-    for (const vec3& p : points) {
-        float t = std::clamp(glm::length(p - mean) / reach, 0.0f, 1.0f);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const vec3& p = points[i];
+        if (!std::isfinite(radius) || !Sphere{p, radius}.bounds().finite())
+            throw Error("particles: point " + std::to_string(i) + " (" + std::to_string(p.x) + ", " + std::to_string(p.y) +
+                        ", " + std::to_string(p.z) + ") with radius " + std::to_string(r) +
+                        " reaches past the float32 range (coordinates too large)");
+        auto t = static_cast<float>(std::clamp(glm::length(dvec(p) - mean) / reach, 0.0, 1.0));
         vec3 c = glm::mix(vec3(1.0f, 0.75f, 0.4f), vec3(0.3f, 0.5f, 1.0f), std::sqrt(t));
-        out.push_back({p, r, vec4(c, style.opacity), style.kappa});
+        out.push_back({p, radius, vec4(c, style.opacity), style.kappa});
     }
     return out;
 }
