@@ -67,6 +67,16 @@ std::string gzip(const std::string& data) {
     deflateEnd(&zs);
     return out;
 }
+
+/// `data` as a zlib stream (deflate with the zlib wrapper, not gzip's).
+std::string zlib(const std::string& data) {
+    uLongf n = compressBound(static_cast<uLong>(data.size()));
+    std::string out(n, '\0');
+    REQUIRE(compress(reinterpret_cast<Bytef*>(out.data()), &n, reinterpret_cast<const Bytef*>(data.data()),
+                     static_cast<uLong>(data.size())) == Z_OK);
+    out.resize(n);
+    return out;
+}
 #endif
 
 }  // namespace
@@ -338,6 +348,36 @@ TEST_CASE("NRRD gzip data, attached and detached, and broken streams", "[nrrd][g
         write_file(dir / "empty.nrrd", header + "encoding: gzip\n\n");
         CHECK_THROWS_WITH(read_nrrd(dir / "empty.nrrd"), Contains("cut off"));
     }
+}
+
+TEST_CASE("NRRD gzip: concatenated members are one stream (as gzip(1) reads them); trailing bytes and zlib streams are refused",
+          "[nrrd][gzip]") {
+    TempDir dir;
+    std::string data = as_bytes(ramp_u8());
+    std::string header = u8_header.substr(0, u8_header.size() - 14);  // without "encoding: raw\n"
+    auto attached = [&](const std::string& name, const std::string& body) {
+        write_file(dir / name, header + "encoding: gzip\n\n" + body);
+        return dir / name;
+    };
+    // Two and three members holding the data between them, and an empty member at the end.
+    check_ramp_u8(read_nrrd(attached("two.nrrd", gzip(data.substr(0, 10)) + gzip(data.substr(10)))));
+    check_ramp_u8(read_nrrd(attached("three.nrrd", gzip(data.substr(0, 5)) + gzip(data.substr(5, 7)) + gzip(data.substr(12)))));
+    check_ramp_u8(read_nrrd(attached("emptytail.nrrd", gzip(data) + gzip(""))));
+    // A second member with more data: too big, like one long member.
+    CHECK_THROWS_WITH(read_nrrd(attached("more.nrrd", gzip(data) + gzip("x"))),
+                      Contains("more than the 24 bytes") && Contains("too big"));
+    // Bytes after the last member that are no gzip member.
+    CHECK_THROWS_WITH(read_nrrd(attached("junk.nrrd", gzip(data) + "extra")),
+                      Contains("after the gzip data") && Contains("not a gzip member"));
+    CHECK_THROWS_WITH(read_nrrd(attached("zeros.nrrd", gzip(data) + std::string(8, '\0'))), Contains("not a gzip member"));
+    // zlib-wrapped deflate data are not gzip, whatever zlib could read.
+    CHECK_THROWS_WITH(read_nrrd(attached("zlib.nrrd", zlib(data))), Contains("zlib") && Contains("not gzip"));
+    // A directory named as the data file.
+    std::filesystem::create_directory(dir / "adir.gz");
+    write_file(dir / "dir.nhdr", header + "encoding: gzip\ndata file: adir.gz\n");
+    CHECK_THROWS_WITH(read_nrrd(dir / "dir.nhdr"), Contains("is a directory") && !Contains("truncated"));
+    write_file(dir / "rawdir.nhdr", header + "encoding: raw\ndata file: adir.gz\n");
+    CHECK_THROWS_WITH(read_nrrd(dir / "rawdir.nhdr"), Contains("is a directory"));
 }
 #else
 TEST_CASE("NRRD gzip without zlib is a clear error", "[nrrd][gzip]") {

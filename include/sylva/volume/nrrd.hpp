@@ -450,6 +450,8 @@ inline DataLocation data_location(const Header& h, bool gzip) {
 
 /// Opens the data file at the data start, after `line skip` lines.
 inline std::ifstream open_data(const DataLocation& d) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(d.path, ec)) throw Error(d.source + ": the data file is a directory, not a file");
     std::ifstream in(d.path, std::ios::binary);
     if (!in) throw Error(d.source + ": cannot open the data file (missing or unreadable)");
     in.seekg(static_cast<std::streamoff>(d.offset));
@@ -483,13 +485,15 @@ inline std::vector<std::byte> read_raw_data(const DataLocation& d, std::size_t n
 }
 
 #if defined(SYLVA_HAVE_ZLIB) && SYLVA_HAVE_ZLIB
-/// Streams a gzip (or zlib) stream from a file through zlib's inflate.
+/// Streams gzip data from a file through zlib's inflate. As gzip(1) reads them, several
+/// concatenated gzip members are one stream (their contents follow each other). Bytes after the
+/// last member that do not start another member, and zlib-wrapped data, are refused.
 class GzipReader {
 public:
     GzipReader(std::istream& in, std::string source, std::size_t expected)
         : in_(in), source_(std::move(source)), expected_(expected) {
-        if (inflateInit2(&zs_, 15 + 32) != Z_OK)
-            throw Error(source_ + ": zlib inflateInit2 failed");  // 32: gzip or zlib header
+        if (inflateInit2(&zs_, 15 + 16) != Z_OK)  // 16: gzip wrapper only (not zlib, not raw deflate)
+            throw Error(source_ + ": zlib inflateInit2 failed");
     }
     GzipReader(const GzipReader&) = delete;
     GzipReader& operator=(const GzipReader&) = delete;
@@ -498,7 +502,7 @@ public:
     /// Inflates exactly `n` bytes into `dst`; throws when the stream ends early or is corrupt.
     void read(std::byte* dst, std::size_t n) {
         while (n > 0) {
-            if (ended_)
+            if (member_done_ && !next_member())
                 throw Error(source_ + ": gzip data hold only " + std::to_string(produced_) +
                             " bytes, but the header asks for " + std::to_string(expected_) + " (truncated)");
             std::size_t got = step(dst, std::min<std::size_t>(n, std::size_t{1} << 30));
@@ -506,32 +510,65 @@ public:
             n -= got;
         }
     }
-    /// True when the stream ends here (its checksum verified); false when it holds more data.
+    /// True when the data end here (every member's checksum verified, nothing after the last
+    /// member); false when they hold more data. Throws on bytes that are no gzip member.
     bool finished() {
         std::byte probe[1];
-        while (!ended_)
-            if (step(probe, 1) == 1) return false;
-        return true;
+        for (;;) {
+            if (!member_done_) {
+                if (step(probe, 1) == 1) return false;
+            } else if (!next_member()) {
+                return true;
+            }
+        }
     }
 
 private:
+    /// Makes at least `k` unread input bytes available if the file has them; false otherwise.
+    bool fill(std::size_t k) {
+        if (zs_.avail_in >= k) return true;
+        if (zs_.avail_in > 0 && zs_.next_in != chunk_.data()) std::memmove(chunk_.data(), zs_.next_in, zs_.avail_in);
+        zs_.next_in = chunk_.data();
+        while (zs_.avail_in < k) {
+            in_.read(reinterpret_cast<char*>(chunk_.data() + zs_.avail_in),
+                     static_cast<std::streamsize>(chunk_.size() - zs_.avail_in));
+            if (in_.gcount() == 0) return false;
+            zs_.avail_in += static_cast<uInt>(in_.gcount());
+        }
+        return true;
+    }
+    /// True when bytes a, b open a zlib stream (RFC 1950: deflate method, header checksum).
+    static bool zlib_header(unsigned a, unsigned b) { return (a & 0x0Fu) == 8u && (a >> 4) <= 7u && (a * 256u + b) % 31u == 0u; }
+    /// At a member's end: true (inflate reset) when another gzip member follows, false at the
+    /// end of the file; throws for any other byte.
+    bool next_member() {
+        if (!fill(2) && zs_.avail_in == 0) return false;
+        if (zs_.avail_in >= 2 && zs_.next_in[0] == 0x1f && zs_.next_in[1] == 0x8b) {
+            if (inflateReset(&zs_) != Z_OK) throw Error(source_ + ": zlib inflateReset failed");
+            member_done_ = false;
+            return true;
+        }
+        throw Error(source_ + ": the bytes after the gzip data (" + std::to_string(produced_) +
+                    " bytes decompressed) are not a gzip member (trailing garbage)");
+    }
     /// One inflate call into at most `room` bytes at `dst`; returns the bytes produced.
     std::size_t step(std::byte* dst, std::size_t room) {
-        if (zs_.avail_in == 0) {
-            in_.read(reinterpret_cast<char*>(chunk_.data()), static_cast<std::streamsize>(chunk_.size()));
-            if (in_.gcount() == 0)
-                throw Error(source_ + ": gzip stream cut off after " + std::to_string(produced_) + " of " +
-                            std::to_string(expected_) + " bytes (truncated file)");
-            zs_.next_in = chunk_.data();
-            zs_.avail_in = static_cast<uInt>(in_.gcount());
+        if (!started_) {  // name zlib-wrapped data for what they are
+            started_ = true;
+            if (fill(2) && !(zs_.next_in[0] == 0x1f && zs_.next_in[1] == 0x8b) &&
+                zlib_header(zs_.next_in[0], zs_.next_in[1]))
+                throw Error(source_ + ": the data are a zlib stream, not gzip ('encoding: gzip' needs gzip's 1f 8b header)");
         }
+        if (zs_.avail_in == 0 && !fill(1))
+            throw Error(source_ + ": gzip stream cut off after " + std::to_string(produced_) + " of " +
+                        std::to_string(expected_) + " bytes (truncated file)");
         zs_.next_out = reinterpret_cast<Bytef*>(dst);
         zs_.avail_out = static_cast<uInt>(room);
         int r = inflate(&zs_, Z_NO_FLUSH);
         std::size_t got = room - zs_.avail_out;
         produced_ += got;
         if (r == Z_STREAM_END)
-            ended_ = true;
+            member_done_ = true;
         else if (r != Z_OK && r != Z_BUF_ERROR)
             throw Error(source_ + ": corrupt gzip data (" + (zs_.msg ? zs_.msg : "zlib error " + std::to_string(r)) +
                         ")");
@@ -544,7 +581,8 @@ private:
     z_stream zs_{};
     std::vector<unsigned char> chunk_ = std::vector<unsigned char>(std::size_t{1} << 16);
     std::size_t produced_ = 0;
-    bool ended_ = false;
+    bool member_done_ = false;
+    bool started_ = false;
 };
 #endif
 
