@@ -3,14 +3,16 @@
 //   * memory (Table III): the index against the data, for the default (bricked) tree and the
 //     paper's slim tree without leaves;
 //   * speed (Fig. 7, Table I): rays/s, traversal steps, cells intersected and hits per ray, at
-//     one camera framing the volume, medians of --runs renders after a warm-up;
+//     one camera framing the volume, medians of --runs frames after a cold one; the impls of a
+//     case take turns frame by frame (round robin), so a change of load on a shared machine
+//     falls on all of them alike and their ratios hold;
 //   * 2x2 ray packets through the default tree (Wald 4.3; Table I's "SIMD" steps);
 //   * a middle variant, implicit-kd-b3 (bricks of 3 unstored levels, ~2^3 cells), for the
 //     memory / speed trade-off of ikd::Config::brick_levels;
 //   * cold and steady state: build_ms is the first build of the tree in the process (its
 //     allocations touch fresh pages), build_ms_again a second build of the same tree (the
 //     allocator's pages are warm); first_frame_ms is the first frame of an impl (frame buffers
-//     and the index touched for the first time), frame_ms the median of --runs frames after it.
+//     and the index touched for the first time), frame_ms the median of the --runs frames after.
 //     A machine started minutes ago pays more for first touches than a process can show (its
 //     hypervisor maps pages on first use), so the cold figures here are a lower bound;
 //   * a middle variant, implicit-kd-b3 (bricks of 3 unstored levels, ~2^3 cells), for the
@@ -18,7 +20,7 @@
 //   * cold and steady state: build_ms is the first build of the case in the process (its
 //     allocations touch fresh pages), build_ms_again a second build of the same tree (the
 //     allocator's pages are warm); first_frame_ms is the first frame of an impl (frame buffers
-//     and the index touched for the first time), frame_ms the median of --runs frames after it.
+//     and the index touched for the first time), frame_ms the median of the --runs frames after.
 //     A machine started minutes ago pays more for first touches than this process can show
 //     (its hypervisor maps pages on first use), so cold figures here are a lower bound;
 //   * the images of the tree, its packets and the DDA must be identical (checked every case).
@@ -51,6 +53,8 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
+#include <memory>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -154,31 +158,57 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
-/// Renders `runs` frames (after one warm-up) with walker w; fills the rays/s median and the
-/// per-ray counts; returns the last frame.
-Frame measure(const std::vector<std::uint32_t>& words, const GridWords& gw, IsoRenderParams p, IsoWalker w,
-              std::size_t runs, ThreadPool& pool, const std::string& c, const std::string& impl,
-              std::vector<Record>& out, bool packets = false) {
+/// One impl's renderer in the round-robin timing of a case: render() draws a frame and fills
+/// `n` (counters of the last frame); `packets` adds Table I's active rays per step.
+struct Contender {
+    std::string impl;
+    std::function<Frame(IsoCounters&)> render;
+    bool packets = false;
+    IsoCounters n{};
+    Frame last{};
+    double first_ms = 0.0;
+    std::vector<double> ms{};
+};
+
+/// Times the contenders side by side: one cold frame each, then `runs` rounds in which every
+/// contender renders one frame in turn, so a change of load on the machine falls on all of them
+/// alike; records the median frame (rays/s) and the counters of each.
+void time_round_robin(std::vector<Contender>& cs, std::size_t runs, const IsoRenderParams& p, const std::string& c,
+                      std::vector<Record>& out) {
+    for (Contender& k : cs) {
+        k.last = k.render(k.n);
+        k.first_ms = k.last.ms;
+    }
+    for (std::size_t r = 0; r < runs; ++r)
+        for (Contender& k : cs) {
+            k.last = k.render(k.n);
+            k.ms.push_back(k.last.ms);
+        }
+    double rays = double(p.width) * p.height;
+    for (Contender& k : cs) {
+        double med = median(k.ms);
+        out.push_back({c, k.impl, "first_frame_ms", k.first_ms, "ms"});
+        out.push_back({c, k.impl, "rays_per_s", rays / (med / 1000.0), "rays/s"});
+        out.push_back({c, k.impl, "frame_ms", med, "ms"});
+        out.push_back({c, k.impl, "steps_per_ray", double(k.n.steps) / rays, "steps"});
+        out.push_back({c, k.impl, "cells_per_ray", double(k.n.cells) / rays, "cells"});
+        out.push_back({c, k.impl, "hits", double(k.n.hits), "hits"});
+        if (k.packets)
+            out.push_back({c, k.impl, "active_rays_per_step", double(k.n.lane_steps) / double(k.n.steps), "rays"});
+    }
+}
+
+/// A contender rendering through render_iso_cpu (walker w) or its packet twin.
+Contender iso_contender(std::string impl, const std::vector<std::uint32_t>& words, const GridWords& gw,
+                        IsoRenderParams p, IsoWalker w, ThreadPool& pool, bool packets = false) {
     p.walker = w;
-    IsoCounters n;
-    auto render = [&] {
+    Contender k;
+    k.impl = std::move(impl);
+    k.packets = packets;
+    k.render = [&words, &gw, p, &pool, packets](IsoCounters& n) {
         return packets ? render_iso_cpu_packets(words, gw, p, pool, &n) : render_iso_cpu(words, gw, p, pool, &n);
     };
-    Frame f = render();
-    out.push_back({c, impl, "first_frame_ms", f.ms, "ms"});
-    std::vector<double> ms;
-    for (std::size_t r = 0; r < runs; ++r) {
-        f = render();
-        ms.push_back(f.ms);
-    }
-    double rays = double(p.width) * p.height, med = median(ms);
-    out.push_back({c, impl, "rays_per_s", rays / (med / 1000.0), "rays/s"});
-    out.push_back({c, impl, "frame_ms", med, "ms"});
-    out.push_back({c, impl, "steps_per_ray", double(n.steps) / rays, "steps"});
-    out.push_back({c, impl, "cells_per_ray", double(n.cells) / rays, "cells"});
-    out.push_back({c, impl, "hits", double(n.hits), "hits"});
-    if (packets) out.push_back({c, impl, "active_rays_per_step", double(n.lane_steps) / double(n.steps), "rays"});
-    return f;
+    return k;
 }
 
 /// Pixels whose hit / miss (opacity > 0) differs between a and b.
@@ -188,9 +218,17 @@ std::size_t hit_differences(const Frame& a, const Frame& b) {
     return n;
 }
 
-/// Kinkelin's voxel BIH in iso mode, as sylva-render --mode iso builds and renders it by default.
-void run_bih_iso(const volume::DensityGrid& g, const IsoRenderParams& ip, const Frame& tree, std::size_t runs,
-                 ThreadPool& pool, const std::string& c, std::vector<Record>& out) {
+/// Kinkelin's voxel BIH in iso mode, as sylva-render --mode iso builds and renders it by default:
+/// built here (its build records pushed), rendered as a contender; nullopt when no voxel reaches
+/// the threshold. `store` keeps the encoding alive while the contender runs.
+struct BihIsoIndex {
+    std::vector<std::uint32_t> words, ranges;
+    VolumeRenderParams p;
+    VoxelBihView view;
+};
+std::optional<Contender> bih_iso_contender(const volume::DensityGrid& g, const IsoRenderParams& ip, ThreadPool& pool,
+                                           const std::string& c, std::unique_ptr<BihIsoIndex>& store,
+                                           std::vector<Record>& out) {
     const std::string impl = "bih-iso";
     const float iso = ip.isos.front().value;
     auto t0 = std::chrono::steady_clock::now();
@@ -198,14 +236,16 @@ void run_bih_iso(const volume::DensityGrid& g, const IsoRenderParams& ip, const 
     std::vector<VoxelCuboid> cuboids = volume::voxel_cuboids(g, std::min(0.1f, iso), pool);
     if (cuboids.empty()) {
         std::cerr << "sylva-iso-bench: " << c << ": no voxel reaches the BIH threshold (bih-iso left out)\n";
-        return;
+        return std::nullopt;
     }
     bih::FullBih full = bih::build_full(std::span<const VoxelCuboid>(cuboids), bih::Config{}, pool);
     bih::LodConfig lc{64, 0.75f, 0.01f, 2};  // sylva-render's --lod-depth, --lod-density, --lod-stddev, --chunk-depth
     bih::Lod lod = bih::extract_lod(full, lc);
-    std::vector<std::uint32_t> words = bih::encode_lod(lod, lc), ranges = bih::encode_node_ranges(lod, lc);
+    store = std::make_unique<BihIsoIndex>();
+    store->words = bih::encode_lod(lod, lc);
+    store->ranges = bih::encode_node_ranges(lod, lc);
     double build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    VolumeRenderParams p;  // sylva-render's defaults for --mode iso
+    VolumeRenderParams& p = store->p;  // sylva-render's defaults for --mode iso
     p.camera = ip.camera;
     p.width = ip.width;
     p.height = ip.height;
@@ -218,22 +258,19 @@ void run_bih_iso(const volume::DensityGrid& g, const IsoRenderParams& ip, const 
     p.iso = iso;
     p.mode = VolumeMode::BihIso;
     p.iso_culling = true;
-    VoxelBihView view{words, ranges, g.spacing, g.world_box()};
-    Frame f = render_bih_dvr_cpu(view, p, pool);  // warm-up
-    std::vector<double> ms;
-    for (std::size_t r = 0; r < runs; ++r) {
-        f = render_bih_dvr_cpu(view, p, pool);
-        ms.push_back(f.ms);
-    }
-    double rays = double(p.width) * p.height, med = median(ms);
-    std::size_t hits = 0;
-    for (const vec4& px : f.rgba) hits += px.w > 0.0f;
+    store->view = VoxelBihView{store->words, store->ranges, g.spacing, g.world_box()};
     out.push_back({c, impl, "build_ms", build_ms, "ms"});
-    out.push_back({c, impl, "index_bytes", double((words.size() + ranges.size()) * 4), "bytes"});
-    out.push_back({c, impl, "rays_per_s", rays / (med / 1000.0), "rays/s"});
-    out.push_back({c, impl, "frame_ms", med, "ms"});
-    out.push_back({c, impl, "hits", double(hits), "hits"});
-    out.push_back({c, impl, "pixels_differing_from_tree", double(hit_differences(f, tree)), "pixels"});
+    out.push_back({c, impl, "index_bytes", double((store->words.size() + store->ranges.size()) * 4), "bytes"});
+    Contender k;
+    k.impl = impl;
+    BihIsoIndex* ix = store.get();
+    k.render = [ix, &pool](IsoCounters& n) {
+        Frame f = render_bih_dvr_cpu(ix->view, ix->p, pool);
+        n = IsoCounters{};
+        for (const vec4& px : f.rgba) n.hits += px.w > 0.0f;  // pixels with a hit
+        return f;
+    };
+    return k;
 }
 
 #ifdef SYLVA_ISO_BENCH_NANOVDB
@@ -403,30 +440,28 @@ Frame render_nanovdb(const nanovdb::NanoGrid<float>& grid, const IsoRenderParams
     return f;
 }
 
-/// The NanoVDB peer on the case's grid, camera and isovalue; compares its image with the tree's.
-void run_nanovdb(const volume::DensityGrid& g, const IsoRenderParams& p, const shared::SylvaIkdHeader& hdr,
-                 const Frame& tree, std::size_t runs, ThreadPool& pool, const std::string& c, std::vector<Record>& out) {
+/// The NanoVDB peer on the case's grid, camera and isovalue: built here (its build records
+/// pushed), rendered as a contender; `store` keeps the grid alive while the contender runs.
+Contender nanovdb_contender(const volume::DensityGrid& g, const IsoRenderParams& p, const shared::SylvaIkdHeader& hdr,
+                            ThreadPool& pool, const std::string& c,
+                            std::unique_ptr<nanovdb::GridHandle<nanovdb::HostBuffer>>& store, std::vector<Record>& out) {
     const std::string impl = "nanovdb-hdda";
     auto t0 = std::chrono::steady_clock::now();
-    nanovdb::GridHandle<nanovdb::HostBuffer> handle = nanovdb_grid(g, p.isos.front().value);
+    store = std::make_unique<nanovdb::GridHandle<nanovdb::HostBuffer>>(nanovdb_grid(g, p.isos.front().value));
     double build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    const nanovdb::NanoGrid<float>* grid = handle.grid<float>();
+    const nanovdb::NanoGrid<float>* grid = store->grid<float>();
     if (!grid) throw Error("sylva-iso-bench: NanoVDB built no float grid");
-    IsoCounters n;
-    Frame f = render_nanovdb(*grid, p, hdr, pool, n);  // warm-up
-    std::vector<double> ms;
-    for (std::size_t r = 0; r < runs; ++r) {
-        f = render_nanovdb(*grid, p, hdr, pool, n);
-        ms.push_back(f.ms);
-    }
-    double rays = double(p.width) * p.height, med = median(ms);
     out.push_back({c, impl, "build_ms", build_ms, "ms"});
-    out.push_back({c, impl, "index_bytes", double(handle.size()), "bytes"});
-    out.push_back({c, impl, "rays_per_s", rays / (med / 1000.0), "rays/s"});
-    out.push_back({c, impl, "frame_ms", med, "ms"});
-    out.push_back({c, impl, "steps_per_ray", double(n.steps) / rays, "steps"});
-    out.push_back({c, impl, "cells_per_ray", double(n.cells) / rays, "cells"});
-    out.push_back({c, impl, "hits", double(n.hits), "hits"});
+    out.push_back({c, impl, "index_bytes", double(store->size()), "bytes"});
+    Contender k;
+    k.impl = impl;
+    k.render = [grid, p, hdr, &pool](IsoCounters& n) { return render_nanovdb(*grid, p, hdr, pool, n); };
+    return k;
+}
+
+/// NanoVDB's image against the tree's: equal, or the pixels differing (reported, see the top).
+void compare_nanovdb(const Frame& f, const Frame& tree, const std::string& c, std::vector<Record>& out) {
+    const std::string impl = "nanovdb-hdda";
     std::size_t differing = pixel_differences(f, tree);
     out.push_back({c, impl, "image_equals_tree", differing == 0 ? 1.0 : 0.0, "bool"});
     if (differing != 0) {
@@ -437,6 +472,18 @@ void run_nanovdb(const volume::DensityGrid& g, const IsoRenderParams& p, const s
 }
 #endif
 
+/// True when a and b hold the same pixels bit for bit.
+bool same_image(const Frame& a, const Frame& b) {
+    return a.rgba.size() == b.rgba.size() && std::memcmp(a.rgba.data(), b.rgba.data(), a.rgba.size() * sizeof(vec4)) == 0;
+}
+
+void check_same(const Frame& a, const Frame& b, const std::string& c, const std::string& impl, const std::string& metric,
+                const std::string& what, std::vector<Record>& out) {
+    bool same = same_image(a, b);
+    out.push_back({c, impl, metric, same ? 1.0 : 0.0, "bool"});
+    if (!same) std::cerr << "sylva-iso-bench: " << c << ": " << what << "\n";
+}
+
 void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vector<Record>& out) {
     std::optional<volume::DensityGrid> g = grid_of(c);
     if (!g) return;
@@ -446,48 +493,51 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     p.width = p.height = o.size;
     p.camera = Camera::framing(g->world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(o.size, o.size);
     p.isos = {{o.iso, vec4(0.93f, 0.86f, 0.75f, 1.0f)}};
-    Frame images[2];
-    int k = 0;
-    shared::SylvaIkdHeader hdr{};
-    for (std::uint32_t bricks : {ikd::Config{}.brick_levels, 3u, 0u}) {
-        std::string impl = bricks == ikd::Config{}.brick_levels ? "implicit-kd" : bricks ? "implicit-kd-b3" : "implicit-kd-slim";
-        ikd::Tree t = ikd::build(*g, pool, ikd::Config{bricks});
-        std::vector<std::uint32_t> words = ikd::encode(t);
-        out.push_back({c, impl, "build_ms", t.build_ms, "ms"});
-        out.push_back({c, impl, "build_ms_again", ikd::build(*g, pool, ikd::Config{bricks}).build_ms, "ms"});
-        out.push_back({c, impl, "index_bytes", double(words.size() * 4), "bytes"});
-        out.push_back({c, impl, "index_per_data", double(words.size() * 4) / double(data_bytes), "x"});
-        if (bricks == ikd::Config{}.brick_levels)  // the cell space (origin, 1 / spacing, cells) every walker maps rays into
-            hdr = shared::sylva_ikd_read_header(shared::Words{words.data(), words.size()},
-                                                static_cast<std::uint32_t>(words.size()),
-                                                static_cast<std::uint32_t>(gw.words.size()));
-        Frame img = measure(words, gw, p, IsoWalker::Tree, o.runs, pool, c, impl, out);
-        if (bricks == 3u) {  // not kept: compared with the default tree's image
-            bool same = std::memcmp(img.rgba.data(), images[0].rgba.data(), img.rgba.size() * sizeof(vec4)) == 0;
-            out.push_back({c, impl, "image_equals_tree", same ? 1.0 : 0.0, "bool"});
-            if (!same) std::cerr << "sylva-iso-bench: " << c << ": the b3 tree's image differs from the default tree's\n";
-            continue;
-        }
-        images[k++] = std::move(img);
-        if (bricks != 0) {  // 2x2 packets (Wald 4.3, Table I): the same image in fewer steps
-            Frame pk = measure(words, gw, p, IsoWalker::Tree, o.runs, pool, c, impl + "-packet", out, true);
-            bool same = std::memcmp(pk.rgba.data(), images[0].rgba.data(), pk.rgba.size() * sizeof(vec4)) == 0;
-            out.push_back({c, impl + "-packet", "image_equals_single", same ? 1.0 : 0.0, "bool"});
-            if (!same) std::cerr << "sylva-iso-bench: " << c << ": the packets' image differs from single rays'\n";
-        }
-        if (bricks == 0) {
-            Frame dda = measure(words, gw, p, IsoWalker::Dda, o.runs, pool, c, "dda", out);
-            bool same = dda.rgba.size() == images[0].rgba.size() &&
-                        std::memcmp(dda.rgba.data(), images[0].rgba.data(), dda.rgba.size() * sizeof(vec4)) == 0;
-            out.push_back({c, "dda", "image_equals_tree", same ? 1.0 : 0.0, "bool"});
-            if (!same) std::cerr << "sylva-iso-bench: " << c << ": the DDA's image differs from the tree's\n";
-        }
+    // The three trees (default bricks, 3 brick levels, slim), each built twice: cold, then again.
+    const std::uint32_t bricks[3] = {ikd::Config{}.brick_levels, 3u, 0u};
+    const char* names[3] = {"implicit-kd", "implicit-kd-b3", "implicit-kd-slim"};
+    std::vector<std::uint32_t> words[3];
+    for (int t = 0; t < 3; ++t) {
+        ikd::Tree tree = ikd::build(*g, pool, ikd::Config{bricks[t]});
+        words[t] = ikd::encode(tree);
+        out.push_back({c, names[t], "build_ms", tree.build_ms, "ms"});
+        out.push_back({c, names[t], "build_ms_again", ikd::build(*g, pool, ikd::Config{bricks[t]}).build_ms, "ms"});
+        out.push_back({c, names[t], "index_bytes", double(words[t].size() * 4), "bytes"});
+        out.push_back({c, names[t], "index_per_data", double(words[t].size() * 4) / double(data_bytes), "x"});
     }
+    // The cell space (origin, 1 / spacing, cells) every walker maps rays into.
+    shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(shared::Words{words[0].data(), words[0].size()},
+                                                                static_cast<std::uint32_t>(words[0].size()),
+                                                                static_cast<std::uint32_t>(gw.words.size()));
+    std::vector<Contender> cs;
+    cs.push_back(iso_contender(names[0], words[0], gw, p, IsoWalker::Tree, pool));
+    cs.push_back(iso_contender("implicit-kd-packet", words[0], gw, p, IsoWalker::Tree, pool, true));
+    cs.push_back(iso_contender(names[1], words[1], gw, p, IsoWalker::Tree, pool));
+    cs.push_back(iso_contender("implicit-kd-b3-packet", words[1], gw, p, IsoWalker::Tree, pool, true));
+    cs.push_back(iso_contender(names[2], words[2], gw, p, IsoWalker::Tree, pool));
+    cs.push_back(iso_contender("dda", words[2], gw, p, IsoWalker::Dda, pool));
+    const std::size_t trees = cs.size();
+    std::unique_ptr<BihIsoIndex> bih_store;
+#ifdef SYLVA_ISO_BENCH_NANOVDB
+    std::unique_ptr<nanovdb::GridHandle<nanovdb::HostBuffer>> nanovdb_store;
+#endif
     if (o.peers) {
 #ifdef SYLVA_ISO_BENCH_NANOVDB
-        run_nanovdb(*g, p, hdr, images[0], o.runs, pool, c, out);
+        cs.push_back(nanovdb_contender(*g, p, hdr, pool, c, nanovdb_store, out));
 #endif
-        run_bih_iso(*g, p, images[0], o.runs, pool, c, out);
+        if (std::optional<Contender> k = bih_iso_contender(*g, p, pool, c, bih_store, out)) cs.push_back(std::move(*k));
+    }
+    time_round_robin(cs, o.runs, p, c, out);
+    const Frame& tree = cs[0].last;
+    check_same(cs[1].last, tree, c, cs[1].impl, "image_equals_single", "the packets' image differs from single rays'", out);
+    for (std::size_t k = 2; k < trees; ++k)
+        check_same(cs[k].last, tree, c, cs[k].impl, "image_equals_tree", cs[k].impl + "'s image differs from the default tree's", out);
+    for (std::size_t k = trees; k < cs.size(); ++k) {
+#ifdef SYLVA_ISO_BENCH_NANOVDB
+        if (cs[k].impl == "nanovdb-hdda") compare_nanovdb(cs[k].last, tree, c, out);
+#endif
+        if (cs[k].impl == "bih-iso")  // sampled: reported, never fatal
+            out.push_back({c, "bih-iso", "pixels_differing_from_tree", double(hit_differences(cs[k].last, tree)), "pixels"});
     }
     out.push_back({c, "data", "data_bytes", double(data_bytes), "bytes"});
 }
