@@ -45,7 +45,7 @@
 //     from the implicit kd-tree's (reported, never fatal).
 // Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3
 // (float32 grids, densities in [0, 1]). JSON records {"case", "impl", "metric", "value", "unit"}.
-//   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512] [--size N] [--runs R]
+//   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512,ml1024] [--size N] [--runs R]
 //                   [--iso V] [--json FILE] [--threads T] [--no-peers]
 // --no-peers leaves out nanovdb-hdda and bih-iso (whose builds dominate the run at ML 512^3).
 #include <algorithm>
@@ -102,7 +102,7 @@ struct Record {
 };
 
 const char* usage() {
-    return "usage: sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512] [--size N] [--runs R]\n"
+    return "usage: sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512,ml1024] [--size N] [--runs R]\n"
            "                       [--iso V] [--json FILE] [--threads T] [--no-peers]\n";
 }
 
@@ -114,7 +114,7 @@ Options parse(int argc, char** argv) {
             o.cases.clear();
             std::stringstream ss(bench_cli::value_of(i, argc, argv));
             for (std::string c; std::getline(ss, c, ',');)
-                o.cases.push_back(bench_cli::one_of("--cases", c, {"aneurism", "bonsai", "ml32", "ml64", "ml128", "ml256", "ml512"}));
+                o.cases.push_back(bench_cli::one_of("--cases", c, {"aneurism", "bonsai", "ml32", "ml64", "ml128", "ml256", "ml512", "ml1024"}));
         } else if (a == "--size") {
             o.size = static_cast<std::uint32_t>(bench_cli::parse_count(a, bench_cli::value_of(i, argc, argv), 4096));
         } else if (a == "--runs") {
