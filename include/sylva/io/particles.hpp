@@ -4,6 +4,7 @@
 #define SYLVA_IO_PARTICLES_HPP
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -17,6 +18,11 @@
 #include "sylva/elements/sphere.hpp"
 
 namespace sylva::io {
+
+// read_points reads the files' little-endian float32 triples straight into vec3s.
+static_assert(std::endian::native == std::endian::little,
+              "sylva::io: particle files hold little-endian float32 and are read in host byte order; big-endian "
+              "hosts are not supported");
 
 /// The N of a file name following NAME_Nx3_float32.raw, or 0 when the name does not say.
 inline std::uint64_t points_in_name(const std::string& path) {
@@ -46,7 +52,7 @@ inline std::vector<vec3> read_points(const std::string& path) {
                     std::to_string(named) + " (truncated or wrong file?)");
     std::vector<vec3> pts(n);
     std::ifstream in(path, std::ios::binary);
-    if (!in.read(reinterpret_cast<char*>(pts.data()), static_cast<std::streamsize>(bytes)))
+    if (!in.read(reinterpret_cast<char*>(pts.data()), static_cast<std::streamsize>(bytes)))  // bytes of the floats
         throw Error("cannot read particle file " + path + ": read failed");
     for (std::size_t i = 0; i < pts.size(); ++i)
         if (!std::isfinite(pts[i].x) || !std::isfinite(pts[i].y) || !std::isfinite(pts[i].z))

@@ -13,6 +13,7 @@
 #ifndef SYLVA_VOLUME_GRID_HPP
 #define SYLVA_VOLUME_GRID_HPP
 
+#include <bit>
 #include <cmath>
 #include <concepts>
 #include <cstddef>
@@ -91,6 +92,15 @@ enum class RangeSource : std::uint8_t {
     Explicit,  ///< given by the caller
     Constant,  ///< a constant volume's one value v widened to [min(v, 0), max(v, 0)] ([0, 1] for v = 0)
 };
+
+// Volume::bytes hold the voxels in the files' little-endian order (raw and NRRD readers; NRRD
+// big-endian data are swapped to it) and are read in host order: value() copies them out with
+// std::memcpy, and view() reinterprets them as T, which C++20 allows because allocating the
+// std::byte array implicitly creates the uint16/float objects in it ([intro.object]/13) and the
+// allocation is aligned for them. Host order equals file order only on little-endian hosts.
+static_assert(std::endian::native == std::endian::little,
+              "sylva::volume: voxel bytes are little-endian (the raw/NRRD file layout and what the GPU reads) and "
+              "are read in host byte order; big-endian hosts are not supported");
 
 /// An owning volume of one scalar type, as read from a file or generated.
 struct Volume {
