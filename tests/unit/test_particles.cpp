@@ -3,6 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
 
 #include <sylva/bih/build.hpp>
 #include <sylva/bih/encode.hpp>
@@ -196,4 +200,32 @@ TEST_CASE("particles with large finite coordinates get finite radii and build; b
     std::vector<vec3> edge{vec3(-3.4e38f), vec3(3.4e38f), vec3(0.0f)};
     CHECK_THROWS_WITH(io::spheres_from_points(edge), Contains("particle") && Contains("float32 range") &&
                                                          !Contains("NaN"));
+}
+
+namespace {
+std::string write_points(const std::filesystem::path& dir, const std::string& name, std::size_t floats) {
+    std::vector<float> v(floats, 1.0f);
+    std::filesystem::path p = dir / name;
+    std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * 4));
+    return p.string();
+}
+}  // namespace
+
+TEST_CASE("particle file names: the count and layout they state are checked, never skipped", "[particles][io]") {
+    using Catch::Matchers::Contains;
+    std::filesystem::path dir = std::filesystem::temp_directory_path() / ("sylva_points_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    CHECK(io::read_points(write_points(dir, "ok_10x3_float32.raw", 30)).size() == 10);
+    CHECK(io::read_points(write_points(dir, "plain.raw", 30)).size() == 10);  // the name states nothing
+    CHECK_THROWS_WITH(io::read_points(write_points(dir, "bad_11x3_float32.raw", 30)), Contains("its name says 11"));
+    CHECK_THROWS_WITH(io::read_points(write_points(dir, "zero_0x3_float32.raw", 30)), Contains("its name says 0"));
+    CHECK_THROWS_WITH(io::read_points(write_points(dir, "huge_1000000000000000000x3_float32.raw", 30)),
+                      Contains("its name says 1000000000000000000"));
+    CHECK_THROWS_WITH(io::read_points(write_points(dir, "huge_99999999999999999999x3_float32.raw", 30)),
+                      Contains("99999999999999999999"));
+    CHECK_THROWS_WITH(io::read_points(write_points(dir, "four_12x4_float32.raw", 48)),  // 192 bytes: 16 whole triples
+                      Contains("12x4_float32") && Contains("float32 xyz"));
+    CHECK_THROWS_WITH(io::read_points(write_points(dir, "bytes_10x3_uint8.raw", 30)),
+                      Contains("10x3_uint8") && Contains("float32 xyz"));
+    std::filesystem::remove_all(dir);
 }

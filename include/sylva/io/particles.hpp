@@ -24,29 +24,63 @@ static_assert(std::endian::native == std::endian::little,
               "sylva::io: particle files hold little-endian float32 and are read in host byte order; big-endian "
               "hosts are not supported");
 
-/// The N of a file name following NAME_Nx3_float32.raw, or 0 when the name does not say.
-inline std::uint64_t points_in_name(const std::string& path) {
-    const std::string tail = "x3_float32.raw";
+/// What a particle file's name states: NAME_NxC_TYPE.raw (the convention of ../shared/data).
+struct NamedLayout {
+    std::string count;       ///< N as written (digits), empty when the name states no layout
+    std::string components;  ///< C as written
+    std::string type;        ///< TYPE as written
+};
+
+/// Splits a file name of the form NAME_NxC_TYPE.raw (N and C decimal digits); an empty layout
+/// when the name does not have that form.
+inline NamedLayout named_layout(const std::string& path) {
     std::string name = std::filesystem::path(path).filename().string();
-    if (name.size() <= tail.size() || name.compare(name.size() - tail.size(), tail.size(), tail) != 0) return 0;
-    std::size_t end = name.size() - tail.size(), begin = end;
-    while (begin > 0 && name[begin - 1] >= '0' && name[begin - 1] <= '9') --begin;
-    if (begin == end || begin == 0 || name[begin - 1] != '_' || end - begin > 18) return 0;
-    return std::stoull(name.substr(begin, end - begin));
+    const std::string ext = ".raw";
+    if (name.size() <= ext.size() || name.compare(name.size() - ext.size(), ext.size(), ext) != 0) return {};
+    name.resize(name.size() - ext.size());
+    std::size_t type_at = name.rfind('_');
+    if (type_at == std::string::npos || type_at == 0) return {};
+    std::size_t dims_at = name.rfind('_', type_at - 1);
+    if (dims_at == std::string::npos) return {};
+    std::string dims = name.substr(dims_at + 1, type_at - dims_at - 1);
+    std::size_t x = dims.find('x');
+    auto digits = [](const std::string& s) {
+        return !s.empty() && s.find_first_not_of("0123456789") == std::string::npos;
+    };
+    if (x == std::string::npos || !digits(dims.substr(0, x)) || !digits(dims.substr(x + 1))) return {};
+    return {dims.substr(0, x), dims.substr(x + 1), name.substr(type_at + 1)};
+}
+
+/// The N of a file name following NAME_Nx3_float32.raw, or 0 when the name states no layout.
+/// Throws sylva::Error when the name states another layout (NAME_10x4_float32.raw,
+/// NAME_10x3_uint8.raw: not float32 xyz triples), 0 points, or a count over 10^18.
+inline std::uint64_t points_in_name(const std::string& path) {
+    NamedLayout l = named_layout(path);
+    if (l.count.empty()) return 0;
+    const std::string what = "particle file " + path + ": its name says " + l.count + "x" + l.components + "_" + l.type;
+    if (l.components != "3" || l.type != "float32")
+        throw Error(what + ", but particle files hold float32 xyz triples (NAME_Nx3_float32.raw)");
+    std::size_t lead = l.count.find_first_not_of('0');
+    std::string digits = lead == std::string::npos ? "0" : l.count.substr(lead);
+    if (digits == "0") throw Error("particle file " + path + ": its name says 0 points");
+    if (digits.size() > 18)
+        throw Error("particle file " + path + ": its name says " + l.count + " points, more than any file holds");
+    return std::stoull(digits);
 }
 
 /// Reads float32 xyz triples. Throws sylva::Error naming the file when it cannot be opened, is
-/// empty, is not a whole number of triples, disagrees with the count in its name, or holds a
-/// NaN or infinite coordinate (with the point's index).
+/// empty, is not a whole number of triples, has a name stating another layout or a count it
+/// does not hold (points_in_name), or holds a NaN or infinite coordinate (with the point's index).
 inline std::vector<vec3> read_points(const std::string& path) {
     std::error_code ec;
     auto bytes = std::filesystem::file_size(path, ec);
     if (ec) throw Error("cannot read particle file " + path + ": " + ec.message());
+    const std::uint64_t named = points_in_name(path);  // first: a name stating another layout is refused as such
     if (bytes == 0) throw Error("particle file " + path + " is empty");
     if (bytes % 12 != 0)
         throw Error("particle file " + path + " has " + std::to_string(bytes) +
                     " bytes, not a whole number of float32 xyz triples (12 bytes each)");
-    std::uint64_t n = bytes / 12, named = points_in_name(path);
+    std::uint64_t n = bytes / 12;
     if (named && named != n)
         throw Error("particle file " + path + " holds " + std::to_string(n) + " points but its name says " +
                     std::to_string(named) + " (truncated or wrong file?)");
