@@ -136,8 +136,10 @@ struct Leaf {
 /// (octant ^ the direction's sign mask), yielding the cut leaves with a positive-length interval
 /// computed with the slab test's arithmetic; on a parallel axis a box is [lo, hi), closed at the
 /// volume's upper end (the iterator's documented rules).
+/// `cut_leaf`, when given, marks the leaves of a view-dependent cut (one byte per node).
 inline void reference_walk(const octree::Tree& t, std::uint32_t n, const VoxelRay& r, float t_min, float t_max,
-                           std::uint32_t max_level, std::vector<Leaf>& out) {
+                           std::uint32_t max_level, std::vector<Leaf>& out,
+                           const std::vector<std::uint8_t>* cut_leaf = nullptr) {
     using namespace sylva::shared;
     const octree::Node& node = t.nodes[n];
     vec3 lo(t.box_lo(node)), hi(t.box_hi(node));
@@ -154,7 +156,7 @@ inline void reference_walk(const octree::Tree& t, std::uint32_t n, const VoxelRa
         }
     }
     if (!(a < b)) return;
-    if (node.leaf() || node.level >= max_level) {
+    if (node.leaf() || node.level >= max_level || (cut_leaf && (*cut_leaf)[n])) {
         out.push_back({n, a, b});
         return;
     }
@@ -164,7 +166,8 @@ inline void reference_walk(const octree::Tree& t, std::uint32_t n, const VoxelRa
     for (std::uint32_t k = 0; k < 8; ++k) {
         std::uint32_t o = k ^ flip;
         if ((node.child_mask >> o) & 1u)
-            reference_walk(t, shared::sylva_oct_child(node.first_child, node.child_mask, o), r, t_min, t_max, max_level, out);
+            reference_walk(t, shared::sylva_oct_child(node.first_child, node.child_mask, o), r, t_min, t_max, max_level, out,
+                           cut_leaf);
     }
 }
 

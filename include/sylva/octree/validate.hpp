@@ -75,7 +75,7 @@ inline std::uint64_t node_key(std::uint32_t level, glm::u32vec3 c) {
 inline void validate_record(std::span<const std::uint32_t> w, const shared::SylvaOctHeader& h, std::size_t n) {
     using namespace sylva::shared;
     const std::uint32_t* r = &w[SYLVA_OCT_HEADER_WORDS + SYLVA_OCT_NODE_WORDS * n];
-    if ((r[1] & ~0x31FFFu) != 0u || (r[3] >> 16) != 0u || r[13] != 0u || r[14] != 0u || r[15] != 0u)
+    if ((r[1] & ~0xF1FFFu) != 0u || (r[3] >> 16) != 0u || r[13] != 0u || r[14] != 0u || r[15] != 0u)
         invalid(node_text(n) + " has reserved bits set");
     std::uint32_t level = sylva_oct_level(r[1]), mask = sylva_oct_child_mask(r[1]);
     if (level >= h.levels) invalid(node_text(n) + " is at level " + std::to_string(level) + " of " + std::to_string(h.levels));
@@ -86,6 +86,9 @@ inline void validate_record(std::span<const std::uint32_t> w, const shared::Sylv
             invalid(node_text(n) + " (level " + std::to_string(level) + ") starts outside the volume along axis " +
                     std::to_string(a));
     if (n == 0 && (level != 0u || c != glm::u32vec3(0u))) invalid("node 0 is not the root (level 0 at the origin)");
+    if ((r[1] & SYLVA_OCT_CUT_LEAF) != 0u && (r[1] & SYLVA_OCT_CUT_BELOW) != 0u)
+        invalid(node_text(n) + " is marked both a leaf of the cut and below it");
+    if (n == 0 && (r[1] & SYLVA_OCT_CUT_BELOW) != 0u) invalid("the root is marked below the cut");
     if ((mask == 0u) != (r[0] == SYLVA_OCT_NONE))
         invalid(node_text(n) + ": its first child and its child mask disagree about it being a leaf");
     if (mask != 0u && level + 1 >= h.levels) invalid(node_text(n) + " has children below the last level");
@@ -116,6 +119,10 @@ inline void validate_children(std::span<const std::uint32_t> w, const shared::Sy
             if (sylva_oct_level(sylva_oct_flags(buf, k)) != sylva_oct_level(flags) + 1 || sylva_oct_coord(buf, k) != want)
                 invalid(node_text(n) + "'s child octant " + std::to_string(o) + " (" + node_text(k) +
                         ") is not one level down at twice the coordinates plus the octant");
+            bool below = (flags & (SYLVA_OCT_CUT_LEAF | SYLVA_OCT_CUT_BELOW)) != 0u;
+            if (below != ((sylva_oct_flags(buf, k) & SYLVA_OCT_CUT_BELOW) != 0u))
+                invalid(node_text(k) + " is " + (below ? "not " : "") + "marked below the cut, but its parent " +
+                        node_text(n) + (below ? " is a cut leaf or below the cut" : " is inside the working set"));
             if (k == 0 || parents[k]++ != 0) invalid(node_text(k) + " is the child of more than one node (or the root is a child)");
         }
     }
@@ -160,7 +167,8 @@ inline void validate_neighbours(std::span<const std::uint32_t> w, const shared::
 
 /// Checks an index (`words`) and its brick buffer (`bricks`) against the layout of
 /// sylva/shared/octree_layout.h: every header field; per node the reserved bits, level,
-/// coordinates, range, brick index and state; children in range, one level down at the right
+/// coordinates, range, brick index and state, cut bits (never both; the children of a cut leaf
+/// or of a node below the cut, and only they, below the cut); children in range, one level down at the right
 /// coordinates, every node but the root the child of exactly one node (so no cycles and nothing
 /// unreachable); every neighbour pointer equal to the node whose box touches that face (same
 /// level, else the deepest coarser one, none outside the volume); every brick sample finite.

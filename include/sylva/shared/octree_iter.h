@@ -26,8 +26,11 @@
 // on an axis the ray is parallel to, a point on a plane between two nodes belongs to the upper
 // one (and the volume's upper boundary to the last): boxes are half-open [lo, hi) there, closed
 // at the volume's end. Rays along faces and edges, through corners and starting inside the
-// volume all follow these rules. The cut: a node is a leaf of the cut when it has no children
-// or its level is max_level (max_level >= L - 1: the octree's leaves; 0: the root alone).
+// volume all follow these rules. The cut: a node is a leaf of the cut when it has no children,
+// its level is max_level (max_level >= L - 1: the octree's leaves; 0: the root alone) or its
+// record carries SYLVA_OCT_CUT_LEAF (a view-dependent cut, sylva/octree/cut.hpp). Neighbour
+// pointers are those of the full octree: one that lands on a node marked SYLVA_OCT_CUT_BELOW
+// (inside a cut leaf) restarts the descent from the root at t, which reaches that cut leaf.
 //
 // Corrupted encodings: a header sylva_oct_read_header refuses ends with status ERROR at init; a
 // child or neighbour index out of range, a neighbour deeper than the node it is reached from or
@@ -82,11 +85,12 @@ SYLVA_FN void sylva_oct_begin(SYLVA_OUT(SylvaOctIter) it, SylvaOctHeader hdr, ve
     it.parallel = uvec3(0u, 0u, 0u);
     it.status = SYLVA_ITER_RUNNING;
     // Leaf crossings are at most the leaf bricks per axis summed (+2); each takes at most three
-    // neighbour moves (a corner) and L descents.
+    // neighbour moves (a corner), each possibly followed by a restart from the root (a cut),
+    // and L descents.
     uvec3 n = uvec3((hdr.dims.x + hdr.brick_size - 1u) / max(hdr.brick_size, 1u),
                     (hdr.dims.y + hdr.brick_size - 1u) / max(hdr.brick_size, 1u),
                     (hdr.dims.z + hdr.brick_size - 1u) / max(hdr.brick_size, 1u));
-    it.step_limit = (n.x + n.y + n.z + 2u) * (3u * hdr.levels + 4u);
+    it.step_limit = (n.x + n.y + n.z + 2u) * (4u * hdr.levels + 8u);
     if (hdr.valid == 0u) {
         it.status = SYLVA_ITER_ERROR;
         return;
@@ -113,10 +117,11 @@ SYLVA_FN void sylva_oct_init(SYLVA_OUT(SylvaOctIter) it, SYLVA_BUF(words), uint 
 }
 
 /// The cut's predicate: a node is a leaf of the current cut when it has no children (flags:
-/// its record word +1) or sits at max_level. The out-of-core cut will add its own conditions
-/// here (brick residency, emptiness under the transfer function); the walk asks nothing else.
+/// its record word +1), sits at max_level or is marked SYLVA_OCT_CUT_LEAF (the view-dependent
+/// cut). The out-of-core cut will add its own conditions here (brick residency); the walk asks
+/// nothing else.
 SYLVA_FN bool sylva_oct_is_cut_leaf(uint flags, uint level, uint max_level) {
-    return sylva_oct_child_mask(flags) == 0u || level >= max_level;
+    return sylva_oct_child_mask(flags) == 0u || level >= max_level || (flags & SYLVA_OCT_CUT_LEAF) != 0u;
 }
 
 /// Ends the traversal at t (early ray termination, first hits).
@@ -147,15 +152,18 @@ SYLVA_FN float sylva_oct_exit(SylvaOctIter it, SYLVA_OUT(uint) face) {
 }
 
 /// Moves to the neighbour across `face` (Fig. 5's neighbour step; the box is recomputed from the
-/// neighbour's level and coordinates). Ends the walk (DONE) across the volume's boundary, and
-/// with ERROR on an index out of range, a deeper level or a box outside the volume.
+/// neighbour's level and coordinates); to the root when the neighbour lies below the cut
+/// (SYLVA_OCT_CUT_BELOW), from which the next steps descend to the cut leaf at t. Ends the walk
+/// (DONE) across the volume's boundary, and with ERROR on an index out of range, a deeper level
+/// or a box outside the volume.
 SYLVA_FN void sylva_oct_cross(SYLVA_INOUT(SylvaOctIter) it, SYLVA_BUF(words), uint face) {
     uint nb = (face < 6u) ? sylva_oct_neighbour(SYLVA_PASS_BUF(words), it.node, face) : SYLVA_OCT_NONE;
     if (nb == SYLVA_OCT_NONE) {
         it.status = SYLVA_ITER_DONE;
         return;
     }
-    uint lv = sylva_oct_level(sylva_oct_flags(SYLVA_PASS_BUF(words), nb));
+    uint nflags = sylva_oct_flags(SYLVA_PASS_BUF(words), nb);
+    uint lv = sylva_oct_level(nflags);
     uvec3 c = sylva_oct_coord(SYLVA_PASS_BUF(words), nb);
     if (nb >= it.hdr.node_count || lv > it.level) {
         it.status = SYLVA_ITER_ERROR;
@@ -164,6 +172,12 @@ SYLVA_FN void sylva_oct_cross(SYLVA_INOUT(SylvaOctIter) it, SYLVA_BUF(words), ui
     uint w = sylva_oct_width(it.hdr, lv);
     if (c.x >= (it.hdr.dims.x + w - 1u) / w || c.y >= (it.hdr.dims.y + w - 1u) / w || c.z >= (it.hdr.dims.z + w - 1u) / w) {
         it.status = SYLVA_ITER_ERROR;
+        return;
+    }
+    if ((nflags & SYLVA_OCT_CUT_BELOW) != 0u) {
+        it.node = 0u;
+        it.level = 0u;
+        it.coord = uvec3(0u, 0u, 0u);
         return;
     }
     it.node = nb;

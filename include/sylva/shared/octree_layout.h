@@ -29,7 +29,12 @@
 //     +0    first child index; SYLVA_OCT_NONE when the node has no children
 //     +1    bits 0-7: child mask (bit o set when octant o exists; 0 = a leaf of the octree);
 //           bits 8-12: level l; bits 16-17: brick state (SYLVA_OCT_BRICK_*: 0 absent, 1 on the
-//           host only, 2 resident in the brick buffer bound beside this index); other bits 0
+//           host only, 2 resident in the brick buffer bound beside this index); bits 18-19:
+//           the view-dependent cut (section 5; sylva/octree/cut.hpp writes them, 0 in a fresh
+//           encoding = the full-resolution cut): bit 18 SYLVA_OCT_CUT_LEAF, the node is a leaf
+//           of the cut (the walk does not descend below it); bit 19 SYLVA_OCT_CUT_BELOW, the node
+//           lies below a cut leaf (outside the working set: a neighbour pointer landing on it
+//           makes the walk descend again from the root); never both; other bits 0
 //     +2    bits 0-15: coordinate x; bits 16-31: coordinate y (among the level's nodes)
 //     +3    bits 0-15: coordinate z; bits 16-31: 0
 //     +4..9 neighbour pointers across the faces -x, +x, -y, +y, -z, +z (Fig. 3): the node of the
@@ -62,6 +67,8 @@
 #define SYLVA_OCT_BRICK_ABSENT 0u
 #define SYLVA_OCT_BRICK_HOST 1u
 #define SYLVA_OCT_BRICK_RESIDENT 2u
+#define SYLVA_OCT_CUT_LEAF 0x40000u
+#define SYLVA_OCT_CUT_BELOW 0x80000u
 
 SYLVA_BEGIN_NAMESPACE
 
