@@ -1,0 +1,96 @@
+// sylva/shared/octree_particles.h -- the particle integrator of sylva/shared/particles.h
+// (Kinkelin 4.2, after Kaehler et al.: front-to-back compositing, no global sort) over the
+// element octree (sylva/shared/octree_elem_iter.h) instead of the BIH.
+//
+// Records: the 8-word particle records of particles.h in the buffer `elems`, in the element
+// order the octree was built over (element e is record e). A particle contributes at its
+// closest approach t_c; with straddling references it is listed in every leaf it overlaps, so
+// a leaf composites only the particles whose t_c it claims (sylva_octe_claims: t_c in
+// [t0, t1)), nearest first (selection by (t_c, element), every leaf, any size). The leaves come
+// front to back and their intervals tile the ray, so the ray receives exactly the particles
+// that pass within their radius at t_c in [t_min, t_max], in (t_c, element) order: the order of
+// a brute-force sort. The ray stops at the end of a leaf once its opacity reaches alpha_stop.
+#ifndef SYLVA_SHARED_OCTREE_PARTICLES_H
+#define SYLVA_SHARED_OCTREE_PARTICLES_H
+
+#include "sylva/shared/octree_elem_iter.h"
+#include "sylva/shared/particles.h"
+
+SYLVA_BEGIN_NAMESPACE
+
+/// Closest approach (t_c, (d/r)^2) of the ray to record e of `elems`.
+SYLVA_FN vec2 sylva_octe_approach(SYLVA_BUF(elems), uint e, vec3 o, vec3 d) {
+    vec3 c = sylva_elem_center(SYLVA_PASS_BUF(elems), e);
+    float r = uintBitsToFloat(SYLVA_LOAD(elems, e * SYLVA_PARTICLE_WORDS + 3u));
+    return sylva_particle_approach(c, r, o, d);
+}
+
+/// Composites the particles of one leaf (references [first, first + count) of `words`) whose
+/// t_c the leaf claims, in (t_c, element) order. False (status ERROR) on a reference past
+/// `records` or past the element count.
+SYLVA_FN bool sylva_octe_particle_leaf(SYLVA_INOUT(SylvaComposite) acc, SYLVA_INOUT(SylvaOctElemIter) it,
+                                       SYLVA_BUF(words), SYLVA_BUF(elems), uint records, uint first, uint count,
+                                       vec3 o, vec3 d, float t0, float t1) {
+    float last_t = -sylva_inf();
+    uint last_e = SYLVA_OCT_NONE;
+    for (uint n = 0u; n < count; n++) {
+        uint best_e = SYLVA_OCT_NONE;
+        float best_t = sylva_inf();
+        float best_q = 2.0f;
+        for (uint k = 0u; k < count; k++) {
+            uint e = sylva_octe_element(it, SYLVA_PASS_BUF(words), first + k);
+            if (e == SYLVA_OCT_NONE || e >= records) {
+                it.walk.status = SYLVA_ITER_ERROR;
+                return false;
+            }
+            vec2 a = sylva_octe_approach(SYLVA_PASS_BUF(elems), e, o, d);
+            if (!(a.y <= 1.0f) || !sylva_octe_claims(it, a.x, t0, t1)) continue;
+            bool after_last = a.x > last_t || (a.x == last_t && (last_e == SYLVA_OCT_NONE || e > last_e));
+            bool better = best_e == SYLVA_OCT_NONE || a.x < best_t || (a.x == best_t && e < best_e);
+            if (after_last && better) {
+                best_e = e;
+                best_t = a.x;
+                best_q = a.y;
+            }
+        }
+        if (best_e == SYLVA_OCT_NONE) break;
+        float kappa = uintBitsToFloat(SYLVA_LOAD(elems, best_e * SYLVA_PARTICLE_WORDS + 4u));
+        uint rgba8 = SYLVA_LOAD(elems, best_e * SYLVA_PARTICLE_WORDS + 5u);
+        sylva_composite_add(acc, sylva_unpack_rgba8(rgba8), sylva_radial_weight(best_q, kappa));
+        last_t = best_t;
+        last_e = best_e;
+    }
+    return true;
+}
+
+/// Renders one ray through a particle element octree (`records` 8-word records in `elems`, at
+/// most SYLVA_PARTICLE_MAX_RECORDS); returns premultiplied RGB and opacity, the walk's steps and
+/// final status (ERROR on a corrupted encoding, a reference past the records, or too many
+/// records).
+SYLVA_FN vec4 sylva_octe_render_particles(SYLVA_BUF(words), uint word_count, SYLVA_BUF(elems), uint records, vec3 o,
+                                          vec3 d, float t_min, float t_max, float alpha_stop, SYLVA_OUT(uint) steps,
+                                          SYLVA_OUT(uint) status) {
+    SylvaOctElemIter it;
+    sylva_octe_init(it, SYLVA_PASS_BUF(words), word_count, o, d, t_min, t_max);
+    if (records > SYLVA_PARTICLE_MAX_RECORDS) it.walk.status = SYLVA_ITER_ERROR;
+    SylvaComposite acc;
+    acc.rgb = vec3(0.0f);
+    acc.alpha = 0.0f;
+    uint node;
+    float t0;
+    float t1;
+    uint first;
+    uint count;
+    while (acc.alpha < alpha_stop && sylva_octe_next(it, SYLVA_PASS_BUF(words), node, t0, t1, first, count)) {
+        if (!sylva_octe_particle_leaf(acc, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), records, first, count, o,
+                                      d, t0, t1))
+            break;
+    }
+    steps = it.walk.steps;
+    status = it.walk.status;
+    return vec4(acc.rgb.x, acc.rgb.y, acc.rgb.z, acc.alpha);
+}
+
+SYLVA_END_NAMESPACE
+
+#endif  // SYLVA_SHARED_OCTREE_PARTICLES_H
