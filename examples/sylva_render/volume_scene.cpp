@@ -220,8 +220,7 @@ void warn_if_nothing_visible(const Options& o, const Stats& s, const volume::Den
 }
 
 volume::TransferFunction read_tf_file(const std::string& path) {
-    bool json = path.size() >= 5 && path.substr(path.size() - 5) == ".json";
-    return json ? volume::TransferFunction::from_json(path) : volume::TransferFunction::from_text(path);
+    return volume::TransferFunction::from_file(path);  // .json in any letter case is JSON
 }
 
 int run_volume(const Options& o) {

@@ -164,6 +164,8 @@ TEST_CASE("JSON transfer functions: {\"points\": [[d, r, g, b, a], ...], \"entri
     fails_with("{\"points\": [[0, 0, 0, 0, 0]]} trailing", "after the closing '}'");
     fails_with("{\"points\": [[0, 0, 0, 0, 0]], \"points\": [[1,1,1,1,1]]}", "given twice");
     fails_with("{\"points\": [[0, 0, nan, 0, 0]]}", "expected a finite number");
+    fails_with("{\"points\": [[1e308, 0, 0, 0, 0]]}", "'1e308' is outside the float32 range");
+    fails_with("{\"points\": [[0, 0, 0, 0, 0]], \"entries\": 1e300}", "outside the float32 range");
     fails_with("{\"name\": \"unterminated}", "unterminated string");
     fails_with("{\"x\": " + std::string(100, '[') + std::string(100, ']') + ", \"points\": [[0,0,0,0,0]]}",
                "deeper than 64");
@@ -171,4 +173,24 @@ TEST_CASE("JSON transfer functions: {\"points\": [[d, r, g, b, a], ...], \"entri
     fails_with("", "expected '{', found the end of the file");
     CHECK_THROWS_WITH(TransferFunction::from_json(dir / "missing.json"),
                       Contains("missing.json") && Contains("cannot open"));
+}
+
+TEST_CASE("transfer-function numbers beyond float32 are refused for that, not as non-finite", "[tf][io][errors]") {
+    TempDir dir;
+    write_file(dir / "big.txt", "0 0 0 0 0\n1e308 1 1 1 1\n");
+    CHECK_THROWS_WITH(TransferFunction::from_text(dir / "big.txt"),
+                      Contains("line 2") && Contains("'1e308' is outside the float32 range") && !Contains("not a finite"));
+    write_file(dir / "small.txt", "0 0 0 0 0\n1e-300 1 1 1 1\n");  // underflows to 0: a valid density
+    CHECK_NOTHROW(TransferFunction::from_text(dir / "small.txt"));
+}
+
+TEST_CASE("from_file: a .json extension in any letter case is JSON, anything else text", "[tf][io]") {
+    TempDir dir;
+    const std::string json = "{\"points\": [[0, 0, 0, 0, 0], [1, 1, 0, 0, 1]], \"entries\": 300}";
+    for (const char* name : {"tf.json", "tf.JSON", "tf.Json"}) {
+        write_file(dir / name, json);
+        CHECK(TransferFunction::from_file(dir / name).size() == 300);
+    }
+    write_file(dir / "tf.txt", "0 0 0 0 0\n1 1 0 0 1\n");
+    CHECK(TransferFunction::from_file(dir / "tf.txt").size() == TransferFunction::default_entries);
 }

@@ -35,6 +35,7 @@
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <cctype>
 #include <vector>
 
 #include "sylva/core/error.hpp"
@@ -89,6 +90,15 @@ inline bool parse_float(std::string_view s, double& out) {
     if (s.empty()) return false;
     auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
     return ec == std::errc{} && end == s.data() + s.size() && std::isfinite(out);
+}
+
+/// "'TOKEN' is outside the float32 range" when a parsed finite double does not fit a float
+/// (1e308 would become inf); empty when it fits (values below FLT_MIN round towards 0).
+inline std::string float32_problem(double v, std::string_view token) {
+    if (std::fabs(v) <= double(std::numeric_limits<float>::max())) return {};
+    std::string why(1, '\'');
+    why.append(token.substr(0, 40)).append("' is outside the float32 range");
+    return why;
 }
 
 }  // namespace detail::tf
@@ -187,6 +197,9 @@ public:
                                 entries);
     }
 
+    /// Reads a transfer-function file: JSON when its extension is .json in any letter case
+    /// (tf.JSON too), the text format otherwise. Throws as from_json / from_text do.
+    [[nodiscard]] static TransferFunction from_file(const std::filesystem::path& path);
     /// Reads control points from a text file (format at the top of this header). Throws
     /// sylva::Error naming the file and line for a malformed line or a value outside [0, 1], and
     /// when the file is missing or has no points.
@@ -214,12 +227,19 @@ inline ControlPoint text_point(const std::string& line, const std::string& where
     double v[5];
     for (int i = 0; i < 5; ++i)
         if (!parse_float(w[i], v[i])) throw Error(where + ": '" + w[i] + "' is not a finite number");
+        else if (std::string why = float32_problem(v[i], w[i]); !why.empty()) throw Error(where + ": " + why);
     ControlPoint p{static_cast<float>(v[0]), vec4(float(v[1]), float(v[2]), float(v[3]), float(v[4]))};
     check_point(p, where);
     return p;
 }
 
 }  // namespace detail::tf
+
+inline TransferFunction TransferFunction::from_file(const std::filesystem::path& path) {
+    std::string ext = path.extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return ext == ".json" ? from_json(path) : from_text(path);
+}
 
 inline TransferFunction TransferFunction::from_text(const std::filesystem::path& path, std::size_t entries) {
     const std::string source = "transfer function file " + path.string();
@@ -280,6 +300,8 @@ public:
         if (b == pos_ || text_[b] == '+' || !parse_float(std::string_view(text_).substr(b, pos_ - b), v))
             throw error("expected a finite number, found '" + text_.substr(b, std::max<std::size_t>(pos_ - b, 1)) +
                         "'");
+        if (std::string why = float32_problem(v, std::string_view(text_).substr(b, pos_ - b)); !why.empty())
+            throw error(why);
         return v;
     }
     /// A string; escapes are kept only as far as keys need (\uXXXX becomes '?').
