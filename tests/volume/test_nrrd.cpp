@@ -386,3 +386,22 @@ TEST_CASE("NRRD gzip without zlib is a clear error", "[nrrd][gzip]") {
     CHECK_THROWS_WITH(read_nrrd(dir / "g.nrrd"), Contains("gzip encoding needs zlib"));
 }
 #endif
+
+TEST_CASE("NRRD header bytes: control characters are refused, and error messages never echo raw bytes", "[nrrd][errors]") {
+    TempDir dir;
+    std::string data = as_bytes(ramp_u8());
+    write_file(dir / "g.raw", data);
+    // A NUL inside the data file name used to cut the name silently at the NUL ("g.raw").
+    write_file(dir / "nul.nhdr", u8_header + std::string("data file: g.raw\0junk\n", 22));
+    CHECK_THROWS_WITH(read_nrrd(dir / "nul.nhdr"), Contains("line 7") && Contains("control character") && Contains("\\x00"));
+    // A terminal escape sequence in a field: refused, and shown escaped.
+    write_file(dir / "esc.nrrd", "NRRD0004\ntype: \x1b[31muchar\ndimension: 3\nsizes: 2 3 4\nencoding: raw\n\n" + data);
+    CHECK_THROWS_WITH(read_nrrd(dir / "esc.nrrd"), Contains("\\x1b") && !Contains("\x1b"));
+    // A binary first line: "not a NRRD file", escaped.
+    write_file(dir / "bin.nrrd", std::string("\x1b]0;owned\x07\x01\xff\n", 12) + data);
+    CHECK_THROWS_WITH(read_nrrd(dir / "bin.nrrd"),
+                      Contains("not a NRRD file") && Contains("\\x1b") && !Contains("\x1b") && !Contains("\x07"));
+    // A malformed line with a control byte: escaped in the message.
+    write_file(dir / "bad.nrrd", u8_header + "what\x1b[2J\n\n" + data);
+    CHECK_THROWS_WITH(read_nrrd(dir / "bad.nrrd"), !Contains("\x1b"));
+}

@@ -106,6 +106,36 @@ inline std::vector<std::string> words(std::string_view s) {
     return out;
 }
 
+/// At most `max` bytes of `s` for an error message: printable ASCII as is, every other byte
+/// (control characters, terminal escapes, NUL, bytes >= 0x80) as \xHH, never raw.
+inline std::string printable(std::string_view s, std::size_t max = 60) {
+    static constexpr char hex[] = "0123456789abcdef";
+    std::string out;
+    for (std::size_t i = 0; i < s.size() && i < max; ++i) {
+        auto c = static_cast<unsigned char>(s[i]);
+        if (c >= 0x20 && c < 0x7f) {
+            out.push_back(static_cast<char>(c));
+        } else {
+            out.append("\\x").push_back(hex[c >> 4]);
+            out.push_back(hex[c & 15]);
+        }
+    }
+    if (s.size() > max) out.append("...");
+    return out;
+}
+
+/// Refuses a header line holding a control character (NUL, escape, ...; tab is allowed): NRRD
+/// headers are text, and a NUL would cut a data file name short.
+inline void check_text(const std::string& line, const std::string& source, int line_no) {
+    for (std::size_t i = 0; i < line.size(); ++i) {
+        auto c = static_cast<unsigned char>(line[i]);
+        if ((c < 0x20 && c != '\t') || c == 0x7f)
+            throw Error(source + ": header line " + std::to_string(line_no) + " holds a control character (" +
+                        printable(line.substr(i, 1)) + " at column " + std::to_string(i + 1) + "): '" +
+                        printable(line) + "'");
+    }
+}
+
 /// Reads one header line (without "\n" or "\r\n") of at most 64 KiB; false at end of file.
 inline bool read_line(std::istream& in, std::string& line, const std::string& source, int line_no) {
     line.clear();
@@ -125,10 +155,10 @@ inline bool read_line(std::istream& in, std::string& line, const std::string& so
 /// Checks the magic line NRRD0001 ... NRRD0005.
 inline void check_magic(const std::string& line, const std::string& source) {
     if (line.size() != 8 || line.compare(0, 7, "NRRD000") != 0 || line[7] < '1' || line[7] > '9')
-        throw Error(source + ": not a NRRD file (first line '" + line.substr(0, 40) +
+        throw Error(source + ": not a NRRD file (first line '" + printable(line, 40) +
                     "', expected NRRD0001 to NRRD0005)");
     if (line[7] > '5')
-        throw Error(source + ": NRRD format version " + line.substr(7) + " is newer than 5 (unsupported)");
+        throw Error(source + ": NRRD format version " + printable(line.substr(7)) + " is newer than 5 (unsupported)");
 }
 
 /// Adds one "field: value" line; comments and key:=value pairs are skipped.
@@ -137,12 +167,12 @@ inline void add_field_line(Header& h, const std::string& line, int line_no) {
     std::size_t colon = line.find(':');
     if (colon != std::string::npos && colon + 1 < line.size() && line[colon + 1] == '=') return;  // key:=value
     if (colon == std::string::npos || colon + 1 >= line.size() || line[colon + 1] != ' ')
-        throw Error(h.source + ": line " + std::to_string(line_no) + " '" + line.substr(0, 60) +
+        throw Error(h.source + ": line " + std::to_string(line_no) + " '" + printable(line) +
                     "' is not 'field: value', a key:=value pair or a # comment");
     std::string key = lower(trim(line.substr(0, colon)));
     if (key == "datafile") key = "data file";
     if (h.fields.count(key))
-        throw Error(h.source + ": line " + std::to_string(line_no) + ": field '" + key + "' already given on line " +
+        throw Error(h.source + ": line " + std::to_string(line_no) + ": field '" + printable(key) + "' already given on line " +
                     std::to_string(h.fields[key].line));
     h.fields[key] = Field{trim(line.substr(colon + 2)), line_no};
 }
@@ -165,6 +195,7 @@ inline Header read_header(const std::filesystem::path& path) {
             break;
         }
         if (line_no > 10000) throw Error(h.source + ": header longer than 10000 lines");
+        check_text(line, h.source, line_no);
         add_field_line(h, line, line_no);
     }
     return h;
@@ -183,7 +214,7 @@ inline const Field* optional_field(const Header& h, const std::string& key) {
 }
 
 inline Error field_error(const Header& h, const Field& f, const std::string& key, const std::string& why) {
-    return Error(h.source + ": line " + std::to_string(f.line) + ": field '" + key + ": " + f.value.substr(0, 80) +
+    return Error(h.source + ": line " + std::to_string(f.line) + ": field '" + key + ": " + printable(f.value, 80) +
                  "': " + why);
 }
 
@@ -380,7 +411,7 @@ inline std::optional<std::pair<float, float>> stated_range(const Header& h) {
     };
     std::pair<float, float> r{value(fmin, "min"), value(fmax, "max")};
     if (fmin && fmax && !(r.first < r.second))
-        throw field_error(h, *fmax, "max", "must be above min (" + fmin->value.substr(0, 40) + ")");
+        throw field_error(h, *fmax, "max", "must be above min (" + printable(fmin->value, 40) + ")");
     return r;
 }
 
