@@ -22,6 +22,14 @@ inline std::vector<sylva::octree::ElementConfig> configs() {
     return {def, shallow, deep};
 }
 
+/// Spheres in a few tight Gaussian clusters (overlapping, unequal sizes).
+inline std::vector<sylva::Sphere> clustered_spheres(std::size_t n, std::uint32_t seed) {
+    std::vector<sylva::Sphere> out;
+    for (const auto& b : sylva::testing::clustered_boxes(n, seed))
+        out.push_back({b.box.center(), 0.5f * b.box.extent().x + 0.01f, sylva::vec4(0.8f, 0.6f, 0.3f, 0.4f), 2.0f});
+    return out;
+}
+
 /// Bounds of a set.
 template <class E>
 sylva::Aabb scene_of(const std::vector<E>& es) {

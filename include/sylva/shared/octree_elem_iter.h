@@ -110,6 +110,14 @@ SYLVA_FN void sylva_octe_init(SYLVA_OUT(SylvaOctElemIter) it, SYLVA_BUF(words), 
     it.word_count = word_count;
     it.elem_count = h.brick_count;
     sylva_oct_begin(it.walk, h, origin, direction, t_min, t_max, 0xFFFFFFFFu);
+    // octree_iter.h bounds the steps by the deepest cells a ray can cross, (4 * 2^16 * 3) *
+    // (4 L + 8) = 1.5e7 for a 17-level element octree: far beyond what a corrupted walk should
+    // spin through, and beyond lavapipe's guard on loop iterations (65535, after which the loop
+    // silently exits with the status still RUNNING). A valid walk enters each node during one
+    // piece of the ray (neighbour pointers lead to inner nodes only at the same level), so
+    // (N + 2) (4 L + 8) bounds it too; the smaller bound ends corrupted walks sooner.
+    uint by_nodes = (min(h.node_count, 0x00FFFFFFu) + 2u) * (4u * min(h.levels, 32u) + 8u);
+    it.walk.step_limit = min(it.walk.step_limit, by_nodes);
 }
 
 /// The next leaf with references: its node, the ray's [t0, t1] in it, and its reference list
