@@ -1,13 +1,15 @@
 #version 460
-// DVR over the bricked octree (sylva/shared/octree_dvr.h): the stackless neighbour-pointer walk
-// over the cut's leaves, each sampled from its brick on the marcher's global lattice.
+// DVR (sylva/shared/octree_dvr.h) or first-hit isosurfaces (sylva/shared/octree_iso.h) over the
+// bricked octree: the stackless neighbour-pointer walk over the cut's leaves, each sampled from
+// its brick on the marcher's global lattice.
 //
 // Bindings: 0-3 the bricks (SYLVA_SPLIT_WORDS: brick buffers over 128 MiB); 4 the index words
 // (sylva/shared/octree_layout.h); 5 the transfer function (RGBA8 words, sylva/shared/tf.h); 6 its
 // opacity prefix counts (entries + 1 words); 7 the parameter block (SYLVA_DVR_PARAM_WORDS words,
 // sylva/shared/dvr_common.h); 8 output, 5 words per pixel: premultiplied R, G, B, alpha (float
 // bits) and the number of lattice samples taken (0xFFFFFFFF where the index was found corrupt).
-// Push constants: max level (the cut), the brick buffer's word count (its parts are split).
+// Push constants: max level (the cut), the brick buffer's word count (its parts are split),
+// mode (0 DVR, 1 iso; the iso value is the parameter block's).
 // Specialization constants: 0 split shift of the bricks, 1 parts holding data (1: fast loads).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -24,6 +26,7 @@ layout(std430, binding = 8) writeonly buffer Pixels { uint pixels[]; };
 layout(push_constant) uniform Push {
     uint max_level;
     uint brick_buffer_words;
+    uint mode;
 } pc;
 
 uint sylva_load_words(uint i) { return i < uint(index_words.length()) ? index_words[i] : 0u; }
@@ -35,6 +38,7 @@ uint sylva_load_grid(uint i) { return 0u; }
 
 #include "sylva/shared/camera.h"
 #include "sylva/shared/octree_dvr.h"
+#include "sylva/shared/octree_iso.h"
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
@@ -49,7 +53,12 @@ void main() {
     uint steps;
     uint visits;
     uint status;
-    vec4 c = sylva_oct_dvr_ray(0u, 0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), steps, visits, status);
+    vec4 c;
+    if (pc.mode == 1u) {
+        c = sylva_oct_iso_ray(0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), steps, visits, status);
+    } else {
+        c = sylva_oct_dvr_ray(0u, 0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), steps, visits, status);
+    }
     uint at = (px.y * p.width + px.x) * 5u;
     pixels[at] = floatBitsToUint(c.x);
     pixels[at + 1u] = floatBitsToUint(c.y);

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include <sylva/octree/build.hpp>
+#include <sylva/octree/cut.hpp>
 #include <sylva/octree/encode.hpp>
 #include <sylva/render/octree_volume.hpp>
 #include <sylva/vulkan/octree_volume.hpp>
@@ -85,4 +86,51 @@ TEST_CASE("vulkan: a corrupted octree is refused on upload or marks its rays", "
     Frame host = render_octree_dvr_cpu(OctreeView{bad, t.bricks}, p, serial);
     CHECK(std::count(f.steps.begin(), f.steps.end(), 0xFFFFFFFFu) > 0);
     CHECK(f.steps == host.steps);
+}
+
+TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the host", "[parity][iso][cut]") {
+    vk::Context ctx = vk::Context::create();
+    volume::DensityGrid g = blobs({45, 38, 52}, 43, vec3(1.0f, 1.0f, 1.4f));
+    octree::Tree t = octree::build(g, {8, 2});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    VolumeRenderParams p;
+    p.width = 48;
+    p.height = 40;
+    p.camera = Camera::framing(g.world_box(), {0.5f, 0.4f, 1.0f}, 35.0f).frame(p.width, p.height);
+    p.tf.resize(256);
+    for (std::uint32_t i = 0; i < 256; ++i)
+        p.tf[i] = (60 + i * 3 / 4) | ((230 - i / 2) << 8) | (100u << 16) | ((i < 90 ? 0u : (i - 90) / 2) << 24);
+    p.iso = 0.5f;
+    p.shading = true;
+    ThreadPool pool(2);
+    vk::DeviceOctree dev(ctx, OctreeView{words, t.bricks});
+    std::size_t hits = 0, coarse_leaves = 0;
+    for (float lod : {0.0f, 1.0f, 4.0f}) {  // 0: no cut (the full resolution)
+        for (bool iso : {false, true}) {
+            std::vector<std::uint32_t> w = words;
+            if (lod > 0.0f) {
+                octree::Cut c = select_octree_cut(w, p, {lod, 0xFFFFFFFFu}, iso);
+                octree::apply_cut(w, c);
+                for (std::size_t n = 0; n < t.nodes.size(); ++n)
+                    coarse_leaves += (c.state[n] == octree::CutState::Leaf && !t.nodes[n].leaf()) ? 1 : 0;
+            }
+            dev.set_index(w);
+            OctreeView view{w, t.bricks};
+            Frame host = iso ? render_octree_iso_cpu(view, p, pool) : render_octree_dvr_cpu(view, p, pool);
+            Frame device = iso ? vk::render_octree_iso_vulkan(ctx, dev, p) : vk::render_octree_dvr_vulkan(ctx, dev, p);
+            INFO("lod " << lod << " iso " << iso);
+            CHECK(host.steps == device.steps);
+            CHECK(max_diff(host, device) < 1e-5);
+            if (iso)
+                for (std::size_t i = 0; i < host.rgba.size(); ++i) {
+                    CHECK(host.rgba[i].w == device.rgba[i].w);  // the same hits
+                    hits += host.rgba[i].w == 1.0f ? 1 : 0;
+                }
+        }
+    }
+    CHECK(hits > 3 * std::size_t{p.width} * p.height / 20);  // ~8% of each iso image hits
+    CHECK(coarse_leaves > 20);  // the cuts stop above the octree's leaves
+    std::vector<std::uint32_t> other = words;
+    other.pop_back();
+    CHECK_THROWS_AS(dev.set_index(other), Error);
 }

@@ -1,6 +1,7 @@
-// sylva/render/octree_volume.hpp -- direct volume rendering over the bricked octree on the host,
-// with the shared integrator the shaders run (sylva/shared/octree_dvr.h), over all cores of an
-// executor.
+// sylva/render/octree_volume.hpp -- direct volume rendering and first-hit isosurfaces over the
+// bricked octree on the host, with the shared integrators the shaders run
+// (sylva/shared/octree_dvr.h, octree_iso.h), over all cores of an executor, and the cut chosen
+// by view for a frame (sylva/octree/cut.hpp).
 //
 //   octree::Tree t = octree::build(grid, pool);
 //   std::vector<std::uint32_t> words = octree::encode(t);
@@ -8,6 +9,11 @@
 //
 // With the full-resolution cut (the default max_level) and the builder's default border the
 // image equals render_dvr_cpu's over the same grid bit for bit (same lattice, same dt).
+//
+//   std::vector<std::uint32_t> w = words;                        // a view-dependent cut:
+//   octree::Cut c = select_octree_cut(w, p, {.lod_pixels = 1.0f, .max_nodes = 1u << 16}, false);
+//   octree::apply_cut(w, c);
+//   Frame f = render_octree_dvr_cpu(OctreeView{w, t.bricks}, p, pool);
 #ifndef SYLVA_RENDER_OCTREE_VOLUME_HPP
 #define SYLVA_RENDER_OCTREE_VOLUME_HPP
 
@@ -18,8 +24,10 @@
 
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
+#include "sylva/octree/cut.hpp"
 #include "sylva/render/volume.hpp"
 #include "sylva/shared/octree_dvr.h"
+#include "sylva/shared/octree_iso.h"
 
 namespace sylva {
 
@@ -79,6 +87,40 @@ Frame render_octree_dvr_cpu(const OctreeView& o, const VolumeRenderParams& p, X&
         if (status == SYLVA_ITER_ERROR) steps = 0xFFFFFFFFu;
         return c;
     });
+}
+
+/// Renders the first hit of p.iso through the octree (sylva/shared/octree_iso.h; p.mode and
+/// p.shading are ignored: the surface is always shaded, opaque, in the TF's colour at p.iso);
+/// steps = lattice samples taken, 0xFFFFFFFF where the index was found corrupt.
+template <Executor X>
+Frame render_octree_iso_cpu(const OctreeView& o, const VolumeRenderParams& p, X& exec) {
+    std::vector<std::uint32_t> params = octree_dvr_params(o, p);
+    shared::Words pw{params.data(), params.size()}, ow{o.words.data(), o.words.size()},
+        bw{o.bricks.data(), o.bricks.size()}, tw{p.tf.data(), p.tf.size()};
+    shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
+    shared::SylvaOctHeader h = detail::octree_header(o);
+    return detail::render_pixels(p, exec, [&](vec3 org, vec3 dir, std::uint32_t& steps) {
+        std::uint32_t visits, status;
+        vec4 c = shared::sylva_oct_iso_ray(ow, bw, tw, sp, h, o.max_level, org, dir, 0.0f, shared::sylva_inf(), steps,
+                                           visits, status);
+        if (status == SYLVA_ITER_ERROR) steps = 0xFFFFFFFFu;
+        return c;
+    });
+}
+
+/// The cut for a frame of p (its camera and height) under cfg: nodes the frame cannot see
+/// anything in are terminal (never refined): for DVR (`iso` false) those whose [min, max] the TF
+/// maps to zero opacity, for isosurfaces those whose max stays below p.iso.
+inline octree::Cut select_octree_cut(std::span<const std::uint32_t> words, const VolumeRenderParams& p,
+                                     const octree::CutConfig& cfg, bool iso) {
+    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
+    shared::Words ow{words.data(), words.size()}, sw{tfsum.data(), tfsum.size()};
+    auto terminal = [&](std::uint32_t n) {
+        vec2 r = shared::sylva_oct_range(ow, n);
+        if (iso) return r.y < p.iso;
+        return shared::sylva_oct_tf_empty(sw, static_cast<std::uint32_t>(p.tf.size()), r.x, r.y);
+    };
+    return octree::select_cut(words, octree::cut_view(p.camera, p.width, p.height), cfg, terminal);
 }
 
 }  // namespace sylva
