@@ -272,3 +272,49 @@ sylva_render_test(iso_several_bih RC 2 ERR "several --iso values need --index im
   ARGS --mode iso --iso 0.2,0.4 -o ${_out}/x.png)
 sylva_render_test(iso_particles RC 2 ERR "--index implicit-kd renders volumes only"
   ARGS --index implicit-kd --particles ${_out}/nope.raw -o ${_out}/x.png)
+
+# Gobbetti's bricked octree (issue 12): DVR and first-hit iso on both backends, the full-resolution
+# cut and cuts chosen by view (--lod-pixels), both brick sizes; the stats JSON's octree figures;
+# a volume file; bad options.
+set(_oct_keys "bricks;octree_nodes;index_bytes;brick_bytes;cut_nodes")
+foreach(backend cpu vulkan)
+  if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+    continue()
+  endif()
+  foreach(mode dvr iso)
+    set(_n octree_${mode}_${backend})
+    sylva_render_test(${_n}
+      ARGS --volume procedural:ml --index octree --mode ${mode} --brick 16 --backend ${backend} --size 96x72 --quiet
+           -o ${_out}/${_n}.png --heatmap ${_out}/${_n}_heat.png --stats-json ${_out}/${_n}.json
+      FILES ${_out}/${_n}.png ${_out}/${_n}_heat.png JSON ${_out}/${_n}.json EXTRA_KEYS ${_oct_keys}
+      JSON_MIN visible_pixels=1000 bricks=585 octree_nodes=585 cut_nodes=585 brick_bytes=18720000
+      JSON_EQUAL cut_leaves=512 index_bytes=37520)
+    set(_n octree_${mode}_lod_${backend})
+    sylva_render_test(${_n}
+      ARGS --volume procedural:ml --index octree --mode ${mode} --lod-pixels 1 --cut-nodes 300 --backend ${backend}
+           --brick 16 --size 96x72 --quiet -o ${_out}/${_n}.png --stats-json ${_out}/${_n}.json
+      FILES ${_out}/${_n}.png JSON ${_out}/${_n}.json EXTRA_KEYS ${_oct_keys}
+      JSON_MIN visible_pixels=1000 cut_nodes=9 JSON_EQUAL lod_pixels=1 bricks=585)
+  endforeach()
+endforeach()
+sylva_render_test(octree_ct12 FIXTURE sylva_range_volumes
+  ARGS --volume ${_rv}/ct12_48x48x40_uint16.raw --index octree --brick 32 --lod-pixels 2 --size 96x72 --quiet
+       -o ${_rv}/octree_ct12.png --stats-json ${_rv}/octree_ct12.json
+  FILES ${_rv}/octree_ct12.png JSON ${_rv}/octree_ct12.json EXTRA_KEYS ${_oct_keys}
+  JSON_MIN visible_pixels=${_rv_min_visible} JSON_EQUAL octree_nodes=9 bricks=9)
+sylva_render_test(octree_brick_8 RC 2 ERR "--brick: '8' is not one of 16\\|32"
+  ARGS --index octree --brick 8 -o ${_out}/x.png)
+sylva_render_test(octree_lod_without_octree RC 2 ERR "--lod-pixels needs --index octree"
+  ARGS --mode dvr --lod-pixels 1 -o ${_out}/x.png)
+sylva_render_test(octree_brick_without_octree RC 2 ERR "--brick needs --index octree"
+  ARGS --index implicit-kd --brick 16 -o ${_out}/x.png)
+sylva_render_test(octree_lod_zero RC 2 ERR "--lod-pixels: '0' is not a number in"
+  ARGS --index octree --lod-pixels 0 -o ${_out}/x.png)
+sylva_render_test(octree_cut_nodes_zero RC 2 ERR "--cut-nodes: '0' is not a number in"
+  ARGS --index octree --cut-nodes 0 -o ${_out}/x.png)
+sylva_render_test(octree_particles RC 2 ERR "--index octree renders volumes only here"
+  ARGS --index octree --particles ${_out}/nope.raw -o ${_out}/x.png)
+sylva_render_test(octree_several_isos RC 2 ERR "several --iso values need --index implicit-kd or dda"
+  ARGS --index octree --mode iso --iso 0.2,0.4 -o ${_out}/x.png)
+sylva_render_test(octree_multi RC 2 ERR "--dvr multi is BIH-DVR's"
+  ARGS --index octree --dvr multi -o ${_out}/x.png)

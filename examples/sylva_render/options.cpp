@@ -8,7 +8,7 @@ namespace sylva_render {
 
 const char* usage() {
     return "usage: sylva-render [--particles FILE | --volume FILE|procedural[:ml|nbody]]\n"
-           "                    [--index bih|kd-vidal|kd-binned|implicit-kd|dda|none]\n"
+           "                    [--index bih|kd-vidal|kd-binned|implicit-kd|dda|octree|none]\n"
            "                    [--backend cpu|vulkan] [--size WxH] -o OUT.png|OUT.exr [--stats-json FILE]\n"
            "                    [--heatmap FILE] [--view X,Y,Z] [--threads T] [--quiet]\n"
            "particles:          [--count N] [--radius-factor F] [--opacity A] [--alpha-stop A]\n"
@@ -21,6 +21,7 @@ const char* usage() {
            "kd-trees (volumes): [--kd shallow|deep] [--kd-classify alpha|threshold] [--boxes FILE]\n"
            "                    [--tf-sequence TF1,TF2,...]\n"
            "isosurfaces:        [--index implicit-kd|dda] [--iso V1[,V2,V3,V4]] [--ikd-bricks N]\n"
+           "octree (volumes):   [--index octree] [--brick 16|32] [--lod-pixels P] [--cut-nodes N] [--mode dvr|iso]\n"
            "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
            "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
@@ -28,6 +29,9 @@ const char* usage() {
            "--index implicit-kd renders exact isosurfaces of up to 4 --iso values over Wald et al.'s\n"
            "implicit min/max kd-tree (--index dda: every cell, the reference; the same image). One\n"
            "isovalue is opaque; with several, all but the last are translucent.\n"
+           "--index octree renders DVR or the first hit of one --iso value through Gobbetti et al.'s\n"
+           "bricked octree; without --lod-pixels the full-resolution cut (the marcher's image), with it\n"
+           "a cut refined while a node's voxels project larger than P pixels, within --cut-nodes nodes.\n"
            "With no input it renders a procedural galaxy of --count particles (default 1,000,000);\n"
            "with --mode and no input, a procedural volume. Volume files: NAME_XxYxZ_TYPE.raw, .nrrd, .nhdr.\n"
            "--range picks the raw values that map to density 0 and 1, which the threshold, the transfer\n"
@@ -101,7 +105,10 @@ Options parse(int argc, char** argv) {
         };
         if (a == "--particles") o.particles = value();
         else if (a == "--volume") o.volume = value();
-        else if (a == "--index") o.index = one_of(a, value(), {"bih", "kd-vidal", "kd-binned", "implicit-kd", "dda", "none"});
+        else if (a == "--index") o.index = one_of(a, value(), {"bih", "kd-vidal", "kd-binned", "implicit-kd", "dda", "octree", "none"});
+        else if (a == "--brick") o.brick = static_cast<std::uint32_t>(std::stoul(one_of(a, value(), {"16", "32"})));
+        else if (a == "--lod-pixels") o.lod_pixels = static_cast<float>(number(a, value(), 1e-3, 1e4));
+        else if (a == "--cut-nodes") o.cut_nodes = static_cast<std::uint32_t>(number(a, value(), 1, 4294967295.0));
         else if (a == "--kd") o.kd = one_of(a, value(), {"shallow", "deep"});
         else if (a == "--kd-classify") o.kd_classify = one_of(a, value(), {"alpha", "threshold"});
         else if (a == "--boxes") o.boxes = value();
@@ -151,11 +158,21 @@ Options parse(int argc, char** argv) {
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
     if (o.ikd_index() && !o.volume_input())
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
+    if (o.octree_index() && !o.volume_input())
+        throw std::invalid_argument("--index octree renders volumes only here; particles need --index bih");
+    if (!o.octree_index()) {
+        for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
+            for (int i = 1; i < argc; ++i)
+                if (std::string(argv[i]) == opt) throw std::invalid_argument(std::string(opt) + " needs --index octree");
+    }
+    if (o.octree_index() && o.dvr == "multi")
+        throw std::invalid_argument("--dvr multi is BIH-DVR's; --index octree samples the marcher's lattice");
     if (o.ikd_index() && o.mode == "dvr")
         throw std::invalid_argument("--index " + o.index + " renders isosurfaces (--mode iso), not --mode dvr");
     if (o.ikd_index()) o.mode = "iso";
     if (o.isos.size() > 1 && !o.ikd_index())
         throw std::invalid_argument("several --iso values need --index implicit-kd or dda");
+    if (o.octree_index() && o.mode.empty()) o.mode = "dvr";
     if (o.kd_index() && o.mode == "iso")
         throw std::invalid_argument("--index " + o.index + " renders --mode dvr only (the marcher with empty-space skipping)");
     if (o.range.mode != sylva::volume::ValueRange::Mode::Auto && (!o.volume_input() || o.procedural_volume()))

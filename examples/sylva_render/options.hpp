@@ -14,10 +14,14 @@ namespace sylva_render {
 struct Options {
     std::string particles;           ///< --particles FILE (float32 xyz triples)
     std::string volume;              ///< --volume FILE|procedural[:NAME] (.raw by name convention, .nrrd, .nhdr)
-    std::string index = "bih";       ///< --index bih|kd-vidal|kd-binned|implicit-kd|dda|none (none: the reference
+    std::string index = "bih";       ///< --index bih|kd-vidal|kd-binned|implicit-kd|dda|octree|none (none: the reference
                                      ///< marcher, volumes only; kd-*: the marcher with empty-space skipping by a
                                      ///< kd-tree; implicit-kd: exact isosurfaces over Wald's implicit kd-tree,
-                                     ///< dda: the same over every cell (the reference); volumes only)
+                                     ///< dda: the same over every cell (the reference); octree: Gobbetti's
+                                     ///< bricked octree, DVR or first-hit iso; volumes only)
+    std::uint32_t brick = 32;        ///< --brick 16|32: octree brick size
+    float lod_pixels = 0.0f;         ///< --lod-pixels P: view-dependent octree cut (0: full resolution)
+    std::uint32_t cut_nodes = 1u << 20;  ///< --cut-nodes N: node budget of the octree cut
     std::string mode;                ///< --mode dvr|iso (volumes, default dvr; implies a procedural volume without input)
     std::string dvr = "single";      ///< --dvr single|multi: BIH-DVR samples per leaf (Kinkelin 4.3)
     std::string tf;                  ///< --tf FILE (.json or text control points)
@@ -62,6 +66,8 @@ struct Options {
 
     /// True for the kd-tree indices (--index kd-vidal|kd-binned).
     [[nodiscard]] bool kd_index() const { return index == "kd-vidal" || index == "kd-binned"; }
+    /// True for the bricked octree (--index octree).
+    [[nodiscard]] bool octree_index() const { return index == "octree"; }
     /// True for the exact isosurface indices (--index implicit-kd|dda).
     [[nodiscard]] bool ikd_index() const { return index == "implicit-kd" || index == "dda"; }
 
@@ -71,7 +77,7 @@ struct Options {
     /// True when this run renders a volume (a file, or the procedural volume for --mode or a
     /// kd-tree index).
     [[nodiscard]] bool volume_input() const {
-        return !volume.empty() || ((!mode.empty() || kd_index() || ikd_index()) && particles.empty());
+        return !volume.empty() || ((!mode.empty() || kd_index() || ikd_index() || octree_index()) && particles.empty());
     }
 };
 

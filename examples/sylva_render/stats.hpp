@@ -67,6 +67,14 @@ struct Stats {
         std::uint64_t cells_tested = 0, traversal_steps = 0, hits = 0;
     } iso;
 
+    /// Bricked octree runs (--index octree): the structure and the cut rendered.
+    struct OctreeRows {
+        bool present = false;
+        std::uint32_t brick_size = 0, levels = 0, cut_leaves = 0, cut_deepest = 0;
+        std::size_t bricks = 0, octree_nodes = 0, index_bytes = 0, brick_bytes = 0, cut_nodes = 0;
+        float lod_pixels = 0.0f;  ///< 0: the full-resolution cut
+    } octree;
+
     void fill(const sylva::bih::Tree& t, std::size_t encoded_bytes, const sylva::Frame& f) {
         elements = t.stats.elements;
         nodes = t.stats.nodes;
@@ -112,6 +120,15 @@ struct Stats {
         if (volume.present) print_volume(os);
         if (kd.present) print_kd(os);
         if (iso.present) print_iso(os);
+        if (octree.present)
+            os << "octree           " << octree.octree_nodes << " nodes, " << octree.levels << " levels, "
+               << octree.bricks << " bricks of " << octree.brick_size << "^3; index " << octree.index_bytes
+               << " B, bricks " << octree.brick_bytes << " B\n"
+               << "cut              " << octree.cut_nodes << " nodes, " << octree.cut_leaves << " leaves, deepest level "
+               << octree.cut_deepest
+               << (octree.lod_pixels > 0.0f ? " (--lod-pixels " + std::to_string(octree.lod_pixels) + ")"
+                                            : std::string(" (full resolution)"))
+               << "\n";
         if (errors) os << "ERRORS           " << errors << " rays ended on a corrupted encoding\n";
     }
 
@@ -204,6 +221,12 @@ struct Stats {
                 << ", \"lod_max_depth\": " << v.lod_depth << ", \"lod_bytes\": " << v.lod_bytes << ", \"lod_ms\": " << v.lod_ms;
         }
         if (kd.present) write_kd_json(out);
+        if (octree.present)
+            out << ", \"brick_size\": " << octree.brick_size << ", \"bricks\": " << octree.bricks
+                << ", \"octree_nodes\": " << octree.octree_nodes << ", \"octree_levels\": " << octree.levels
+                << ", \"index_bytes\": " << octree.index_bytes << ", \"brick_bytes\": " << octree.brick_bytes
+                << ", \"cut_nodes\": " << octree.cut_nodes << ", \"cut_leaves\": " << octree.cut_leaves
+                << ", \"cut_deepest_level\": " << octree.cut_deepest << ", \"lod_pixels\": " << octree.lod_pixels;
         if (iso.present) {
             out << ", \"isos\": [";
             for (std::size_t k = 0; k < iso.isos.size(); ++k) out << (k ? ", " : "") << iso.isos[k];

@@ -1,0 +1,104 @@
+// sylva-render, volume input with --index octree: Gobbetti et al.'s bricked octree
+// (sylva/octree/build.hpp) rendered with DVR (sylva/shared/octree_dvr.h) or the first hit of one
+// --iso value (sylva/shared/octree_iso.h) on the host or through Vulkan; without --lod-pixels
+// through the full-resolution cut (the marcher's image), with it through the cut chosen for the
+// view (sylva/octree/cut.hpp) within --cut-nodes nodes. Header only: volume_scene.cpp, the one
+// includer, dispatches here.
+#ifndef SYLVA_RENDER_OCTREE_SCENE_HPP
+#define SYLVA_RENDER_OCTREE_SCENE_HPP
+
+#include <chrono>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <sylva/core/executor.hpp>
+#include <sylva/octree/build.hpp>
+#include <sylva/octree/cut.hpp>
+#include <sylva/octree/encode.hpp>
+#include <sylva/render/image.hpp>
+#include <sylva/render/octree_volume.hpp>
+#include <sylva/volume/grid.hpp>
+#ifdef SYLVA_RENDER_VULKAN
+#include <sylva/vulkan/octree_volume.hpp>
+#endif
+
+#include "options.hpp"
+#include "stats.hpp"
+#include "volume_scene.hpp"
+
+namespace sylva_render {
+
+inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::VolumeRenderParams& vp,
+                             sylva::ThreadPool& pool, Stats& s) {
+    using namespace sylva;
+    const bool iso = o.mode == "iso";
+    octree::Config cfg;
+    cfg.brick_size = o.brick;
+    octree::Tree tree = octree::build(g, pool, cfg);
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<std::uint32_t> words = octree::encode(tree);
+    octree::Cut cut;
+    if (o.lod_pixels > 0.0f) {
+        cut = select_octree_cut(words, vp, {o.lod_pixels, o.cut_nodes}, iso);
+        octree::apply_cut(words, cut);
+    } else {  // the full-resolution cut: every node
+        cut.nodes = static_cast<std::uint32_t>(tree.nodes.size());
+        for (const octree::Node& n : tree.nodes) cut.leaves += n.leaf() ? 1u : 0u;
+        cut.deepest = tree.levels - 1u;
+    }
+    s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    OctreeView view{words, tree.bricks};
+    Frame f;
+    if (o.backend == "cpu") {
+        s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
+        f = best_of(o.repeat, [&] { return iso ? render_octree_iso_cpu(view, vp, pool) : render_octree_dvr_cpu(view, vp, pool); });
+    } else {
+#ifdef SYLVA_RENDER_VULKAN
+        vk::Context ctx = vk::Context::create();
+        s.device = ctx.describe();
+        vk::DeviceOctree dev(ctx, view);
+        f = best_of(o.repeat, [&] {
+            return iso ? vk::render_octree_iso_vulkan(ctx, dev, vp) : vk::render_octree_dvr_vulkan(ctx, dev, vp);
+        });
+#else
+        throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
+#endif
+    }
+    Stats::VolumeRows& v = s.volume;
+    v.present = true;
+    v.mode = std::string(iso ? "iso, first hit" : "dvr") + " through the bricked octree (" +
+             (o.lod_pixels > 0.0f ? "view-dependent cut" : "full-resolution cut") + ")";
+    v.grid = std::to_string(g.dims.x) + "x" + std::to_string(g.dims.y) + "x" + std::to_string(g.dims.z);
+    v.voxels = g.values.size();
+    v.grid_bytes_16bit = g.values.size() * 2;
+    Stats::OctreeRows& r = s.octree;
+    r.present = true;
+    r.brick_size = tree.brick_size;
+    r.bricks = tree.brick_count();
+    r.octree_nodes = tree.nodes.size();
+    r.index_bytes = words.size() * 4;
+    r.brick_bytes = tree.brick_bytes();
+    r.cut_nodes = cut.nodes;
+    r.cut_leaves = cut.leaves;
+    r.cut_deepest = cut.deepest;
+    r.levels = tree.levels;
+    r.lod_pixels = o.lod_pixels;
+    s.elements = g.values.size();
+    s.nodes = tree.nodes.size();
+    s.leaves = cut.leaves;
+    s.max_depth = tree.levels;
+    s.build_ms = tree.build_ms;
+    s.bytes = r.index_bytes + r.brick_bytes;
+    write_frame(o.output, f, vec3(0.0f));
+    if (!o.heatmap.empty()) s.heatmap_peak = write_heatmap(o.heatmap, f);
+    s.fill_frame(f);  // counts the rays that met a refused encoding (steps 0xFFFFFFFF) as errors
+    if (!o.quiet) s.print(std::cout);
+    if (!o.stats_json.empty()) s.write_json(o.stats_json);
+    warn_if_nothing_visible(o, s, g, vp, std::cerr);
+    return s.errors ? 1 : 0;
+}
+
+}  // namespace sylva_render
+
+#endif
