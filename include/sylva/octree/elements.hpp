@@ -134,25 +134,29 @@ struct Pending {
 };
 
 /// Decides whether `p` is split and fills its children's lists (octants that start inside the
-/// lattice only).
+/// lattice only). An element overlaps the lower half along an axis when its lo <= the mid plane
+/// and the upper half when its hi >= it (closed boxes; it overlaps the node already), so it
+/// goes to the octants of those halves: three comparisons, not eight box tests.
 inline void split(Pending& p, const Tree& t, const std::vector<CellBox>& boxes, const ElementConfig& cfg) {
     if (p.elems.size() <= cfg.leaf_elements || p.level + 1 >= t.levels) return;
     std::uint32_t w = t.width(p.level + 1);
+    glm::u32vec3 mid = (2u * p.coord + 1u) * w;
+    glm::bvec3 upper = glm::lessThan(mid, t.dims);  // the upper half exists
+    vec3 fmid(mid);
+    for (std::uint32_t o = 0; o < 8; ++o)
+        if ((!(o & 1u) || upper.x) && (!(o & 2u) || upper.y) && (!(o & 4u) || upper.z)) p.mask |= 1u << o;
     std::size_t total = 0;
-    for (std::uint32_t o = 0; o < 8; ++o) {
-        glm::u32vec3 c = 2u * p.coord + glm::u32vec3(o & 1u, (o >> 1) & 1u, (o >> 2) & 1u);
-        glm::u32vec3 lo = c * w;
-        if (lo.x >= t.dims.x || lo.y >= t.dims.y || lo.z >= t.dims.z) continue;
-        glm::u32vec3 hi = glm::min(lo + w, t.dims);
-        vec3 flo(lo), fhi(hi);
-        for (std::uint32_t e : p.elems) {
-            const CellBox& b = boxes[e];
-            if (b.lo.x <= fhi.x && b.hi.x >= flo.x && b.lo.y <= fhi.y && b.hi.y >= flo.y && b.lo.z <= fhi.z &&
-                b.hi.z >= flo.z)
+    for (std::uint32_t e : p.elems) {
+        const CellBox& b = boxes[e];
+        std::uint32_t sides[3];  // bit 0: lower half, bit 1: upper half
+        for (int a = 0; a < 3; ++a)
+            sides[a] = (b.lo[a] <= fmid[a] ? 1u : 0u) | (upper[a] && b.hi[a] >= fmid[a] ? 2u : 0u);
+        for (std::uint32_t o = 0; o < 8; ++o) {
+            if (((sides[0] >> (o & 1u)) & 1u) && ((sides[1] >> ((o >> 1) & 1u)) & 1u) && ((sides[2] >> ((o >> 2) & 1u)) & 1u)) {
                 p.child[o].push_back(e);
+                ++total;
+            }
         }
-        p.mask |= 1u << o;
-        total += p.child[o].size();
     }
     if (double(total) > double(cfg.max_growth) * double(p.elems.size())) {
         p.mask = 0;

@@ -1,0 +1,200 @@
+// sylva-octree-elements-bench: the element octree (sylva/octree/elements.hpp, issue 12 item 5)
+// against the BIH over the same spheres and rays: build time, index bytes, first hit and all
+// hits in order (rays/s), and the particle integrator's frame time, records {case, impl,
+// metric, value, unit} like sylva-bench (JSON out).
+//
+//   sylva-octree-elements-bench [--json FILE] [--runs K] [--threads T] [--quick]
+//
+// Sets: uniform and clustered spheres (sylva-bench's workloads) and the synthetic galaxy
+// (io::synthetic_galaxy). The octree runs with max_growth 2, 3 and 4 (the straddling
+// references' duplication bound, leaf_elements 8); the BIH as bih::Config{} (one trimmed sphere
+// a leaf) and bih::Config::for_queries() with LeafRecords (its fastest query path). Every
+// octree's first hits and all-hit lists are checked ray by ray against the BIH query tree's:
+// any difference fails the run (exit 1).
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <functional>
+#include <iostream>
+#include <string>
+
+#include <sylva/bih/build.hpp>
+#include <sylva/bih/encode.hpp>
+#include <sylva/bih/query.hpp>
+#include <sylva/io/particles.hpp>
+#include <sylva/octree/elements.hpp>
+#include <sylva/octree/elements_encode.hpp>
+#include <sylva/render/octree_particles.hpp>
+#include <sylva/render/particles.hpp>
+
+#include "bench.hpp"
+
+using namespace sylva;
+
+namespace {
+
+struct Args {
+    std::string json;
+    std::size_t runs = 3, threads = 2;
+    bool quick = false;
+};
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Median of `runs` timings of f (ms).
+double timed(std::size_t runs, const std::function<void()>& f) {
+    std::vector<double> ms;
+    for (std::size_t r = 0; r < runs; ++r) {
+        auto t0 = std::chrono::steady_clock::now();
+        f();
+        ms.push_back(ms_since(t0));
+    }
+    return bench::median(ms);
+}
+
+/// Rays from a sphere around `box` (twice its half diagonal) towards uniform points inside it.
+std::vector<Ray> rays_for(const Aabb& box, std::size_t n, std::uint32_t seed) {
+    std::vector<Ray> unit = bench::make_rays(n, seed);  // around [0, 1]^3
+    vec3 e = box.extent();
+    float s = std::max({e.x, e.y, e.z});
+    for (Ray& r : unit) {
+        r.origin = box.lo + (r.origin - vec3(0.5f)) * s + 0.5f * e;
+        r.direction = glm::normalize(r.direction * s);
+    }
+    return unit;
+}
+
+struct Results {
+    std::vector<std::uint32_t> first;
+    std::vector<std::vector<std::uint32_t>> all;
+};
+
+template <class FirstFn, class AllFn>
+void bench_queries(bench::Report& rep, const std::string& cs, const std::string& impl, const std::vector<Ray>& rays,
+                   ThreadPool& pool, std::size_t runs, FirstFn first, AllFn all, Results& out) {
+    out.first.assign(rays.size(), 0xFFFFFFFFu);
+    out.all.assign(rays.size(), {});
+    double f_ms = timed(runs, [&] {
+        pool.parallel_for(0, rays.size(), 256, [&](std::size_t a, std::size_t b) {
+            for (std::size_t i = a; i < b; ++i) {
+                auto h = first(rays[i]);
+                out.first[i] = h ? h->element : 0xFFFFFFFFu;
+            }
+        });
+    });
+    std::size_t hits = 0;
+    double a_ms = timed(runs, [&] {
+        pool.parallel_for(0, rays.size(), 256, [&](std::size_t a, std::size_t b) {
+            std::vector<bih::ElementHit> hs;
+            for (std::size_t i = a; i < b; ++i) {
+                all(rays[i], hs);
+                out.all[i].clear();
+                for (const auto& h : hs) out.all[i].push_back(h.element);
+            }
+        });
+    });
+    for (const auto& l : out.all) hits += l.size();
+    rep.add(cs + "/first", impl, "rays_per_s", double(rays.size()) / (f_ms / 1000.0), "rays/s");
+    rep.add(cs + "/all", impl, "rays_per_s", double(rays.size()) / (a_ms / 1000.0), "rays/s");
+    rep.add(cs + "/all", impl, "hits_per_ray", double(hits) / double(rays.size()), "hits");
+}
+
+int run_set(bench::Report& rep, const std::string& cs, const std::vector<Sphere>& spheres, const Args& a,
+            ThreadPool& pool, std::size_t ray_count, bool render) {
+    std::span<const Sphere> s(spheres);
+    Aabb box;
+    for (const Sphere& p : spheres) box.extend(p.bounds());
+    std::vector<Ray> rays = rays_for(box, ray_count, 0xE1E7u);
+    std::cout << cs << ": " << spheres.size() << " spheres, " << rays.size() << " rays\n";
+    // The BIH: the query tree with LeafRecords (reference results), and the default tree.
+    bih::Tree qt;
+    rep.add(cs + "/build", "bih-query", "build_ms", timed(a.runs, [&] { qt = bih::build(s, bih::Config::for_queries(), pool); }), "ms");
+    std::vector<std::uint32_t> qw;
+    rep.add(cs + "/build", "bih-query", "encode_ms", timed(a.runs, [&] { qw = bih::encode(qt, s, bih::RangePayload{}, {}, pool); }), "ms");
+    bih::LeafRecords<Sphere> recs(qt, s, pool);
+    rep.add(cs + "/build", "bih-query", "index_bytes", double(qw.size() * 4), "bytes");
+    Results ref;
+    bench_queries(rep, cs, "bih-query", rays, pool, a.runs,
+                  [&](const Ray& r) { return bih::first_hit(qw, recs, r); },
+                  [&](const Ray& r, std::vector<bih::ElementHit>& h) { bih::all_hits(qw, recs, r, h); }, ref);
+    bih::Tree dt;
+    rep.add(cs + "/build", "bih-default", "build_ms", timed(a.runs, [&] { dt = bih::build(s, bih::Config{}, pool); }), "ms");
+    std::vector<std::uint32_t> dw = bih::encode(dt, s, bih::RangePayload{}, {}, pool);
+    rep.add(cs + "/build", "bih-default", "index_bytes", double(dw.size() * 4), "bytes");
+    Results dres;
+    bench_queries(rep, cs, "bih-default", rays, pool, a.runs,
+                  [&](const Ray& r) { return bih::first_hit(dw, dt, s, r); },
+                  [&](const Ray& r, std::vector<bih::ElementHit>& h) { bih::all_hits(dw, dt, s, r, h); }, dres);
+    int failures = 0;
+    CameraFrame cam = Camera::framing(box).frame(320, 240);
+    std::vector<std::uint32_t> brec = pack_particles(s, std::span<const std::uint32_t>(dt.order));
+    if (render)
+        rep.add(cs + "/particles", "bih-default", "frame_ms",
+                timed(a.runs, [&] { (void)render_particles_cpu(dw, brec, cam, 320, 240, pool); }), "ms");
+    std::vector<std::uint32_t> id(spheres.size());
+    for (std::size_t i = 0; i < id.size(); ++i) id[i] = std::uint32_t(i);
+    std::vector<std::uint32_t> orec = pack_particles(s, std::span<const std::uint32_t>(id));
+    for (float growth : {2.0f, 3.0f, 4.0f}) {
+        octree::ElementConfig cfg;
+        cfg.max_growth = growth;
+        std::string impl = "octree-g" + std::to_string(int(growth));
+        octree::ElementTree et;
+        rep.add(cs + "/build", impl, "build_ms", timed(a.runs, [&] { et = octree::build_elements(s, cfg, pool); }), "ms");
+        std::vector<std::uint32_t> ow;
+        rep.add(cs + "/build", impl, "encode_ms", timed(a.runs, [&] { ow = octree::encode_elements(et); }), "ms");
+        rep.add(cs + "/build", impl, "index_bytes", double(ow.size() * 4), "bytes");
+        rep.add(cs + "/build", impl, "nodes", double(et.tree.nodes.size()), "nodes");
+        rep.add(cs + "/build", impl, "refs_per_element", double(et.refs.size()) / double(spheres.size()), "refs");
+        Results got;
+        bench_queries(rep, cs, impl, rays, pool, a.runs, [&](const Ray& r) { return octree::first_hit(ow, s, r); },
+                      [&](const Ray& r, std::vector<bih::ElementHit>& h) { octree::all_hits(ow, s, r, h); }, got);
+        std::size_t bad = 0;
+        for (std::size_t i = 0; i < rays.size(); ++i) bad += got.first[i] != ref.first[i] || got.all[i] != ref.all[i];
+        if (bad) {
+            std::cerr << cs << " " << impl << ": " << bad << " rays differ from the BIH\n";
+            ++failures;
+        }
+        if (render)
+            rep.add(cs + "/particles", impl, "frame_ms",
+                    timed(a.runs, [&] { (void)render_particles_octree_cpu(ow, orec, cam, 320, 240, pool); }), "ms");
+    }
+    return failures;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Args a;
+    for (int i = 1; i < argc; ++i) {
+        std::string o = argv[i];
+        if (o == "--json" && i + 1 < argc) a.json = argv[++i];
+        else if (o == "--runs" && i + 1 < argc) a.runs = std::max(1, std::atoi(argv[++i]));
+        else if (o == "--threads" && i + 1 < argc) a.threads = std::max(1, std::atoi(argv[++i]));
+        else if (o == "--quick") a.quick = true;
+        else {
+            std::cerr << "usage: sylva-octree-elements-bench [--json FILE] [--runs K] [--threads T] [--quick]\n";
+            return 2;
+        }
+    }
+    try {
+        ThreadPool pool(a.threads);
+        bench::Report rep;
+        rep.add("machine", "machine", "threads", double(pool.concurrency()), "threads");
+        std::size_t n = a.quick ? 10000 : 100000, rays = a.quick ? 20000 : 100000;
+        int failures = 0;
+        failures += run_set(rep, "uniform-" + bench::size_label(n), bench::make_spheres(n, bench::Distribution::Uniform, 1), a,
+                            pool, rays, false);
+        failures += run_set(rep, "clustered-" + bench::size_label(n),
+                            bench::make_spheres(n, bench::Distribution::Clustered, 2), a, pool, rays, false);
+        failures += run_set(rep, "galaxy-" + bench::size_label(a.quick ? 20000 : 200000),
+                            io::synthetic_galaxy(a.quick ? 20000 : 200000), a, pool, rays / 2, true);
+        rep.print_table();
+        if (!a.json.empty()) rep.write_json(a.json);
+        return failures ? 1 : 0;
+    } catch (const std::exception& e) {
+        std::cerr << "sylva-octree-elements-bench: error: " << e.what() << "\n";
+        return 1;
+    }
+}
