@@ -1,0 +1,276 @@
+// benchmarks/octree_bench.cpp -- sylva-octree-bench: Gobbetti et al.'s bricked octree against the
+// reference marcher (issue 12's targets).
+//
+// For each data set (aneurism, bonsai, engine, lobster with spacing 1, 1, 1.4, ...; or the
+// procedural Marschner-Lobb volume): builds the octree (--brick, border 2), renders one camera
+// and transfer function with
+//   * marcher       the reference ray marcher over the grid (1,024 steps along the longest axis),
+//   * octree-full   DVR through the full-resolution cut (must equal the marcher bit for bit),
+//   * octree-lod    DVR through the cut chosen for the view (--lod-pixels P, --cut-nodes N),
+//   * iso-full / iso-lod   first hit of --iso through the full and the view's cut,
+// each the median of --runs renders interleaved with the others (host threads), and reports
+// pixels differing and PSNR against the marcher (the iso cut against the full iso image),
+// rays/s and the speed-up over the marcher, build time, index and brick bytes, cut nodes.
+// Output: a table on stdout and JSON records {case, impl, metric, value, unit} (--json).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <sylva/core/error.hpp>
+#include <sylva/core/executor.hpp>
+#include <sylva/octree/build.hpp>
+#include <sylva/octree/cut.hpp>
+#include <sylva/octree/encode.hpp>
+#include <sylva/render/camera.hpp>
+#include <sylva/render/metrics.hpp>
+#include <sylva/render/octree_volume.hpp>
+#include <sylva/render/volume.hpp>
+#include <sylva/volume/procedural.hpp>
+#include <sylva/volume/read.hpp>
+#include <sylva/volume/transfer_function.hpp>
+
+#include "cli.hpp"
+
+#ifndef SYLVA_OCTREE_BENCH_DATA
+#define SYLVA_OCTREE_BENCH_DATA "../shared/data"
+#endif
+
+namespace {
+
+using namespace sylva;
+
+struct Options {
+    std::string data = SYLVA_OCTREE_BENCH_DATA, json, only = "all";
+    std::uint32_t width = 512, height = 512, brick = 32, cut_nodes = 1u << 20;
+    std::size_t runs = 3, threads = 0;
+    float lod_pixels = 1.0f, iso = 0.3f;
+    bool shading = false;
+};
+
+const char* usage() {
+    return "usage: sylva-octree-bench [--data DIR] [--case NAME|all|procedural] [--size WxH] [--runs N]\n"
+           "                          [--threads N] [--brick 16|32] [--lod-pixels P] [--cut-nodes N]\n"
+           "                          [--iso V] [--shading] [--json FILE]\n"
+           "  The bricked octree (Gobbetti et al.) against the reference marcher: the full-resolution\n"
+           "  cut's pixels differing (0 expected), the view cut's PSNR and rays/s against the marcher.\n"
+           "  --case: aneurism, bonsai, engine, lobster, all (default) or procedural (no data needed).\n"
+           "Exit status: 0 on success, 1 on errors (a missing volume names its path), 2 on bad usage.\n";
+}
+
+float parse_float(const std::string& opt, const std::string& v, float lo, float hi) {
+    char* end = nullptr;
+    float f = std::strtof(v.c_str(), &end);
+    if (v.empty() || *end != '\0' || !(f >= lo && f <= hi))
+        throw bench_cli::UsageError(opt + ": '" + v + "' is not a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return f;
+}
+
+Options parse(int argc, char** argv) {
+    Options o;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto value = [&] { return bench_cli::value_of(i, argc, argv); };
+        if (a == "--data") o.data = value();
+        else if (a == "--json") o.json = value();
+        else if (a == "--case")
+            o.only = bench_cli::one_of(a, value(), {"aneurism", "bonsai", "engine", "lobster", "all", "procedural"});
+        else if (a == "--size") {
+            std::string v = value();
+            std::size_t x = v.find('x');
+            if (x == std::string::npos) throw bench_cli::UsageError("--size: '" + v + "' is not WxH");
+            o.width = std::uint32_t(bench_cli::parse_count("--size width", v.substr(0, x), 8192));
+            o.height = std::uint32_t(bench_cli::parse_count("--size height", v.substr(x + 1), 8192));
+        } else if (a == "--runs") o.runs = bench_cli::parse_count(a, value(), 100);
+        else if (a == "--threads") o.threads = bench_cli::parse_count(a, value(), 1024);
+        else if (a == "--brick") o.brick = std::uint32_t(std::stoul(bench_cli::one_of(a, value(), {"16", "32"})));
+        else if (a == "--lod-pixels") o.lod_pixels = parse_float(a, value(), 1e-3f, 1e4f);
+        else if (a == "--cut-nodes") o.cut_nodes = std::uint32_t(bench_cli::parse_count(a, value(), 0xFFFFFFFFu));
+        else if (a == "--iso") o.iso = parse_float(a, value(), 0.0f, 1.0f);
+        else if (a == "--shading") o.shading = true;
+        else throw bench_cli::UsageError("unknown option '" + a + "'");
+    }
+    return o;
+}
+
+struct DataCase {
+    std::string name, file;
+    vec3 spacing{1.0f};
+    float alpha = 0.1f;
+};
+
+std::vector<DataCase> cases(const Options& o) {
+    const std::vector<DataCase> real = {{"aneurism", "aneurism_256x256x256_uint8.raw", vec3(1.0f), 0.4f},
+                                        {"bonsai", "bonsai_256x256x256_uint8.raw", vec3(1.0f), 0.1f},
+                                        {"engine", "engine_256x256x128_uint8.raw", vec3(1.0f), 0.04f},
+                                        {"lobster", "lobster_301x324x56_uint8.raw", vec3(1.0f, 1.0f, 1.4f), 0.15f}};
+    if (o.only == "procedural") return {{"procedural", "", vec3(1.0f), 0.1f}};
+    std::vector<DataCase> out;
+    for (const DataCase& c : real)
+        if (o.only == "all" || o.only == c.name) out.push_back(c);
+    return out;
+}
+
+volume::DensityGrid load(const Options& o, const DataCase& c) {
+    if (c.file.empty()) return volume::marschner_lobb({128, 128, 128});
+    std::filesystem::path path = std::filesystem::path(o.data) / c.file;
+    if (!std::filesystem::is_regular_file(path)) throw Error("volume " + path.string() + " not found (--data DIR)");
+    return volume::normalize(volume::read_volume(path, c.spacing));
+}
+
+/// sylva-volume-bench's warm TF: transparent to 0.1, alpha rising to `a` at 1.
+VolumeRenderParams params(const Options& o, const DataCase& c, const volume::DensityGrid& g) {
+    VolumeRenderParams p;
+    p.width = o.width;
+    p.height = o.height;
+    Camera cam = Camera::framing(g.world_box(), vec3(0.4f, 0.3f, 1.0f));
+    cam.eye = cam.target + (cam.eye - cam.target) * 0.8f;
+    p.camera = cam.frame(o.width, o.height);
+    float a = c.alpha;
+    p.tf = volume::TransferFunction({{0.1f, {0.55f, 0.10f, 0.05f, 0.0f}},
+                                     {0.4f, {0.95f, 0.45f, 0.10f, a / 3.0f}},
+                                     {0.7f, {1.00f, 0.85f, 0.35f, 2.0f * a / 3.0f}},
+                                     {1.0f, {1.00f, 1.00f, 0.95f, a}}})
+               .packed_rgba8();
+    p.dt = default_dt(g.world_box());
+    p.unit = std::min(g.spacing.x, std::min(g.spacing.y, g.spacing.z));
+    p.shading = o.shading;
+    p.iso = o.iso;
+    return p;
+}
+
+struct Record {
+    std::string case_name, impl, metric;
+    double value;
+    std::string unit;
+};
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+/// Renders every image `runs` times in turn (after one untimed small render each); the last
+/// frame of each and its median time.
+template <class Render>
+std::vector<std::pair<Frame, double>> race(Render&& render, std::size_t n, const VolumeRenderParams& p, std::size_t runs) {
+    VolumeRenderParams warm = p;
+    warm.width = warm.height = 8;
+    for (std::size_t i = 0; i < n; ++i) render(i, warm);
+    std::vector<std::pair<Frame, double>> out(n);
+    std::vector<std::vector<double>> ms(n);
+    for (std::size_t r = 0; r < runs; ++r)
+        for (std::size_t i = 0; i < n; ++i) {
+            out[i].first = render(i, p);
+            ms[i].push_back(out[i].first.ms);
+        }
+    for (std::size_t i = 0; i < n; ++i) out[i].second = median(ms[i]);
+    return out;
+}
+
+void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector<Record>& rec) {
+    volume::DensityGrid g = load(o, c);
+    VolumeRenderParams p = params(o, c, g);
+    octree::Config cfg;
+    cfg.brick_size = o.brick;
+    octree::Tree t = octree::build(g, pool, cfg);
+    std::vector<std::uint32_t> full = octree::encode(t);
+    std::vector<std::uint32_t> lod = full, lod_iso = full;
+    octree::Cut cut = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, false);
+    octree::apply_cut(lod, cut);
+    octree::Cut cut_iso = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, true);
+    octree::apply_cut(lod_iso, cut_iso);
+    GridWords gw = GridWords::from(g);
+    const char* names[] = {"marcher", "octree-full", "octree-lod", "iso-full", "iso-lod"};
+    auto render = [&](std::size_t i, const VolumeRenderParams& q) {
+        switch (i) {
+            case 0: return render_dvr_cpu(gw, q, pool);
+            case 1: return render_octree_dvr_cpu(OctreeView{full, t.bricks}, q, pool);
+            case 2: return render_octree_dvr_cpu(OctreeView{lod, t.bricks}, q, pool);
+            case 3: return render_octree_iso_cpu(OctreeView{full, t.bricks}, q, pool);
+            default: return render_octree_iso_cpu(OctreeView{lod_iso, t.bricks}, q, pool);
+        }
+    };
+    auto res = race(render, 5, p, o.runs);
+    double pixels = double(o.width) * o.height;
+    auto add = [&](const std::string& impl, const std::string& metric, double v, const std::string& unit) {
+        rec.push_back({c.name, impl, metric, v, unit});
+    };
+    add("octree", "build_ms", t.build_ms, "ms");
+    add("octree", "octree_nodes", double(t.nodes.size()), "nodes");
+    add("octree", "index_bytes", double(full.size() * 4), "bytes");
+    add("octree", "brick_bytes", double(t.brick_bytes()), "bytes");
+    add("octree-lod", "cut_nodes", cut.nodes, "nodes");
+    add("octree-lod", "cut_leaves", cut.leaves, "nodes");
+    add("iso-lod", "cut_nodes", cut_iso.nodes, "nodes");
+    for (std::size_t i = 0; i < 5; ++i) {
+        add(names[i], "rays_per_s", pixels / (res[i].second / 1e3), "rays/s");
+        add(names[i], "speedup_vs_marcher", res[0].second / res[i].second, "x");
+        double steps = 0.0;
+        for (std::uint32_t s : res[i].first.steps) steps += s;
+        add(names[i], "samples_per_ray", steps / pixels, "samples");
+    }
+    for (std::size_t i = 1; i < 3; ++i) {
+        ImageDifference d = compare_frames(res[0].first, res[i].first);
+        add(names[i], "pixels_differing_vs_marcher", double(d.pixels_differing), "pixels");
+        add(names[i], "psnr_vs_marcher", std::isfinite(d.psnr) ? d.psnr : 999.0, "dB (999: identical)");
+        add(names[i], "max_abs_vs_marcher", d.max_abs, "unorm");
+    }
+    ImageDifference di = compare_frames(res[3].first, res[4].first);
+    add("iso-lod", "psnr_vs_iso_full", std::isfinite(di.psnr) ? di.psnr : 999.0, "dB (999: identical)");
+    add("iso-lod", "pixels_differing_vs_iso_full", double(di.pixels_differing), "pixels");
+}
+
+void write_json(const std::string& path, const std::vector<Record>& rs) {
+    std::ofstream f(path);
+    if (!f) throw Error("sylva-octree-bench: cannot write " + path);
+    f << "[\n";
+    for (std::size_t i = 0; i < rs.size(); ++i) {
+        char num[40];
+        std::snprintf(num, sizeof num, "%.9g", std::isfinite(rs[i].value) ? rs[i].value : 0.0);
+        f << "  {\"case\": \"" << rs[i].case_name << "\", \"impl\": \"" << rs[i].impl << "\", \"metric\": \""
+          << rs[i].metric << "\", \"value\": " << num << ", \"unit\": \"" << rs[i].unit << "\"}"
+          << (i + 1 < rs.size() ? ",\n" : "\n");
+    }
+    f << "]\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Options o;
+    try {
+        o = parse(argc, argv);
+    } catch (const bench_cli::UsageError& e) {
+        std::cerr << "sylva-octree-bench: " << e.what() << "\n" << usage();
+        return 2;
+    }
+    try {
+        ThreadPool pool(o.threads);
+        std::vector<Record> rec;
+        std::cout << "sylva-octree-bench: " << o.width << "x" << o.height << ", brick " << o.brick << ", --lod-pixels "
+                  << o.lod_pixels << ", cut budget " << o.cut_nodes << " nodes, iso " << o.iso << ", "
+                  << pool.concurrency() << " host threads, median of " << o.runs << " runs\n";
+        for (const DataCase& c : cases(o)) {
+            std::size_t from = rec.size();
+            run_case(o, c, pool, rec);
+            for (std::size_t i = from; i < rec.size(); ++i)
+                std::printf("%-11s %-12s %-30s %14.6g %s\n", rec[i].case_name.c_str(), rec[i].impl.c_str(),
+                            rec[i].metric.c_str(), rec[i].value, rec[i].unit.c_str());
+            std::fflush(stdout);
+        }
+        if (!o.json.empty()) {
+            write_json(o.json, rec);
+            std::cout << rec.size() << " records written to " << o.json << "\n";
+        }
+        return 0;
+    } catch (const std::exception& e) {
+        std::cerr << "sylva-octree-bench: " << e.what() << "\n";
+        return 1;
+    }
+}
