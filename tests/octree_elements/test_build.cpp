@@ -5,6 +5,7 @@
 #include <random>
 #include <sstream>
 
+#include <sylva/elements/voxel.hpp>
 #include <sylva/shared/octree_elem_iter.h>
 
 #include "common.hpp"
@@ -149,6 +150,13 @@ TEST_CASE("element octree: references, children and neighbours against brute for
     std::vector<testing::PinnedBox> pinned;
     for (const auto& b : testing::random_boxes(300, 5)) pinned.emplace_back(b.box);
     check_all(pinned);
+    // Voxel cuboids (Bounded only: no intersect needed to build): the non-empty cells of a grid.
+    std::vector<VoxelCuboid> voxels;
+    for (int z = 0; z < 24; ++z)
+        for (int y = 0; y < 20; ++y)
+            for (int x = 0; x < 17; ++x)
+                if ((x * x + y * y + z * z) % 7 < 2) voxels.push_back({{vec3(x, y, z), vec3(x + 1, y + 1, z + 1)}, 0.5f});
+    check_all(voxels);
 }
 
 TEST_CASE("element octree: the builder splits where elements are dense and stops on coincident ones", "[build]") {

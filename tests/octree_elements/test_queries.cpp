@@ -5,6 +5,8 @@
 #include <catch2/catch.hpp>
 
 #include "../octree/rays.hpp"
+#include <sylva/elements/rbf.hpp>
+
 #include "common.hpp"
 
 using namespace sylva;
@@ -92,4 +94,13 @@ TEST_CASE("element octree queries equal brute force on rays along node faces, ed
     std::size_t total = 0;
     CHECK(mismatches(words, es, rays, ranges, total) == 0);
     CHECK(total > rays.size() / 4);
+}
+
+TEST_CASE("element octree queries equal brute force on RBFs and a user type without a default constructor", "[query]") {
+    std::vector<GaussianRbf> rbfs;
+    for (const Sphere& p : testing::random_spheres(1500, 43)) rbfs.push_back({p.center, p.radius / 3.0f, 3.0f, p.rgba});
+    check_set(rbfs, 20000, 44);
+    std::vector<testing::PinnedBox> pinned;
+    for (const auto& b : testing::clustered_boxes(1500, 45)) pinned.emplace_back(b.box);
+    check_set(pinned, 20000, 46);
 }
