@@ -23,3 +23,4 @@
 #include <sylva/shared/octree_layout.h>
 #include <sylva/shared/octree_iter.h>
 #include <sylva/shared/octree_dvr.h>
+#include <sylva/shared/octree_iso.h>
