@@ -5,8 +5,8 @@
 //
 //   sylva-octree-elements-bench [--json FILE] [--runs K] [--threads T] [--quick]
 //
-// Sets: uniform and clustered spheres (sylva-bench's workloads) and the synthetic galaxy
-// (io::synthetic_galaxy). The octree runs with max_growth 2, 3 and 4 (the straddling
+// Sets: uniform and clustered spheres (sylva-bench's workloads), the synthetic galaxy
+// (io::synthetic_galaxy) and the dark-matter halo of ../shared/data (when present). The octree runs with max_growth 2, 3 and 4 (the straddling
 // references' duplication bound, leaf_elements 8); the BIH as bih::Config{} (one trimmed sphere
 // a leaf) and bih::Config::for_queries() with LeafRecords (its fastest query path). Every
 // octree's first hits and all-hit lists are checked ray by ray against the BIH query tree's:
@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <string>
@@ -190,6 +191,12 @@ int main(int argc, char** argv) {
                             bench::make_spheres(n, bench::Distribution::Clustered, 2), a, pool, rays, false);
         failures += run_set(rep, "galaxy-" + bench::size_label(a.quick ? 20000 : 200000),
                             io::synthetic_galaxy(a.quick ? 20000 : 200000), a, pool, rays / 2, true);
+        std::string halo = std::string(SYLVA_DATA_DIR) + "/dark_matter_halo_32314x3_float32.raw";
+        if (std::ifstream(halo)) {
+            failures += run_set(rep, "halo-32314", io::spheres_from_points(io::read_points(halo)), a, pool, rays / 2, true);
+        } else {
+            std::cout << "halo: " << halo << " missing, left out\n";
+        }
         rep.print_table();
         if (!a.json.empty()) rep.write_json(a.json);
         return failures ? 1 : 0;

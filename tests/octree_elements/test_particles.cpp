@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cstdlib>
+#include <fstream>
 
 #include <sylva/bih/build.hpp>
 #include <sylva/bih/encode.hpp>
@@ -131,6 +133,14 @@ TEST_CASE("octree particles: the image equals brute force exactly, and the BIH's
     };
     check(galaxy, "galaxy");
     check(rbfs, "rbfs");
+    // The dark-matter halo of ../shared/data (32314 particles), when present.
+    std::string halo = std::string(SYLVA_DATA_DIR) + "/dark_matter_halo_32314x3_float32.raw";
+    if (std::ifstream(halo)) {
+        check(io::spheres_from_points(io::read_points(halo)), "halo");
+    } else {
+        WARN("halo: " << halo << " is missing: left out");
+        CHECK(std::getenv("SYLVA_ALLOW_MISSING_DATA") != nullptr);
+    }
 }
 
 TEST_CASE("octree particles: too few records or a corrupted octree", "[particles][bad-input]") {
