@@ -6,7 +6,8 @@
 //   sylva-octree-elements-bench [--json FILE] [--runs K] [--threads T] [--quick]
 //
 // Sets: uniform and clustered spheres (sylva-bench's workloads), the synthetic galaxy
-// (io::synthetic_galaxy) and the dark-matter halo of ../shared/data (when present). The octree runs with max_growth 2, 3 and 4 (the straddling
+// (io::synthetic_galaxy) and the dark-matter halo of ../shared/data (when present). The octree
+// runs with max_growth 2, 3 and 4, and 3 over the spheres in octree::morton_order (the straddling
 // references' duplication bound, leaf_elements 8); the BIH as bih::Config{} (one trimmed sphere
 // a leaf) and bih::Config::for_queries() with LeafRecords (its fastest query path). Every
 // octree's first hits and all-hit lists are checked ray by ray against the BIH query tree's:
@@ -69,6 +70,7 @@ std::vector<Ray> rays_for(const Aabb& box, std::size_t n, std::uint32_t seed) {
 
 struct Results {
     std::vector<std::uint32_t> first;
+    std::vector<float> first_t0;  ///< entry t of the first hit (ties: another element may be first)
     std::vector<std::vector<std::uint32_t>> all;
 };
 
@@ -76,12 +78,14 @@ template <class FirstFn, class AllFn>
 void bench_queries(bench::Report& rep, const std::string& cs, const std::string& impl, const std::vector<Ray>& rays,
                    ThreadPool& pool, std::size_t runs, FirstFn first, AllFn all, Results& out) {
     out.first.assign(rays.size(), 0xFFFFFFFFu);
+    out.first_t0.assign(rays.size(), 0.0f);
     out.all.assign(rays.size(), {});
     double f_ms = timed(runs, [&] {
         pool.parallel_for(0, rays.size(), 256, [&](std::size_t a, std::size_t b) {
             for (std::size_t i = a; i < b; ++i) {
                 auto h = first(rays[i]);
                 out.first[i] = h ? h->element : 0xFFFFFFFFu;
+                out.first_t0[i] = h ? h->t.t0 : 0.0f;
             }
         });
     });
@@ -137,29 +141,53 @@ int run_set(bench::Report& rep, const std::string& cs, const std::vector<Sphere>
     std::vector<std::uint32_t> id(spheres.size());
     for (std::size_t i = 0; i < id.size(); ++i) id[i] = std::uint32_t(i);
     std::vector<std::uint32_t> orec = pack_particles(s, std::span<const std::uint32_t>(id));
-    for (float growth : {2.0f, 3.0f, 4.0f}) {
+    std::vector<std::uint32_t> orec_sorted = pack_particles(s, std::span<const std::uint32_t>(octree::morton_order(s)));
+    // The default configuration also over the spheres in Morton order (octree::morton_order),
+    // results mapped back to the original indices.
+    std::vector<std::uint32_t> perm = octree::morton_order(s);
+    std::vector<Sphere> sorted;
+    for (std::uint32_t i : perm) sorted.push_back(spheres[i]);
+    for (int variant = 0; variant < 4; ++variant) {
+        float growth = variant < 3 ? float(variant + 2) : 3.0f;
+        bool morton = variant == 3;
+        std::span<const Sphere> src = morton ? std::span<const Sphere>(sorted) : s;
+        auto back = [&](std::uint32_t e) { return morton ? perm[e] : e; };
         octree::ElementConfig cfg;
         cfg.max_growth = growth;
-        std::string impl = "octree-g" + std::to_string(int(growth));
+        std::string impl = "octree-g" + std::to_string(int(growth)) + (morton ? "-morton" : "");
         octree::ElementTree et;
-        rep.add(cs + "/build", impl, "build_ms", timed(a.runs, [&] { et = octree::build_elements(s, cfg, pool); }), "ms");
+        rep.add(cs + "/build", impl, "build_ms", timed(a.runs, [&] { et = octree::build_elements(src, cfg, pool); }), "ms");
         std::vector<std::uint32_t> ow;
         rep.add(cs + "/build", impl, "encode_ms", timed(a.runs, [&] { ow = octree::encode_elements(et); }), "ms");
         rep.add(cs + "/build", impl, "index_bytes", double(ow.size() * 4), "bytes");
         rep.add(cs + "/build", impl, "nodes", double(et.tree.nodes.size()), "nodes");
         rep.add(cs + "/build", impl, "refs_per_element", double(et.refs.size()) / double(spheres.size()), "refs");
         Results got;
-        bench_queries(rep, cs, impl, rays, pool, a.runs, [&](const Ray& r) { return octree::first_hit(ow, s, r); },
-                      [&](const Ray& r, std::vector<bih::ElementHit>& h) { octree::all_hits(ow, s, r, h); }, got);
+        bench_queries(
+            rep, cs, impl, rays, pool, a.runs,
+            [&](const Ray& r) {
+                auto h = octree::first_hit(ow, src, r);
+                if (h) h->element = back(h->element);
+                return h;
+            },
+            [&](const Ray& r, std::vector<bih::ElementHit>& h) {
+                octree::all_hits(ow, src, r, h);
+                for (auto& x : h) x.element = back(x.element);
+                if (morton) std::sort(h.begin(), h.end(), bih::hit_before);  // ties by the original index
+            },
+            got);
         std::size_t bad = 0;
-        for (std::size_t i = 0; i < rays.size(); ++i) bad += got.first[i] != ref.first[i] || got.all[i] != ref.all[i];
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            bool first_ok = got.first[i] == ref.first[i] || (morton && got.first_t0[i] == ref.first_t0[i]);  // a tie
+            bad += !first_ok || got.all[i] != ref.all[i];
+        }
         if (bad) {
             std::cerr << cs << " " << impl << ": " << bad << " rays differ from the BIH\n";
             ++failures;
         }
         if (render)
             rep.add(cs + "/particles", impl, "frame_ms",
-                    timed(a.runs, [&] { (void)render_particles_octree_cpu(ow, orec, cam, 320, 240, pool); }), "ms");
+                    timed(a.runs, [&] { (void)render_particles_octree_cpu(ow, morton ? orec_sorted : orec, cam, 320, 240, pool); }), "ms");
     }
     return failures;
 }

@@ -270,3 +270,22 @@ TEST_CASE("element octree: corrupted encodings end the walk, never loop or read 
     }
     CHECK(errors > runs / 10);  // the corruptions are seen
 }
+
+TEST_CASE("element octree: morton_order is a permutation that puts neighbours next to each other", "[build]") {
+    auto es = testing::random_spheres(20000, 101);
+    es.push_back({vec3(0.0f), -1.0f, vec4(1.0f), 2.0f});  // an empty box: last
+    auto order = octree::morton_order(std::span<const Sphere>(es));
+    REQUIRE(order.size() == es.size());
+    std::vector<std::uint32_t> sorted = order;
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 0; i < sorted.size(); ++i) REQUIRE(sorted[i] == i);
+    CHECK(order.back() == es.size() - 1);
+    auto path = [&](auto at) {
+        double d = 0.0;
+        for (std::size_t i = 1; i + 1 < es.size(); ++i) d += glm::distance(es[at(i)].center, es[at(i - 1)].center);
+        return d;
+    };
+    double given = path([](std::size_t i) { return i; });
+    double coherent = path([&](std::size_t i) { return order[i]; });
+    CHECK(coherent < given / 10.0);  // 20000 random points: ~1.1 apart as given, ~0.03 in Morton order
+}
