@@ -15,8 +15,10 @@
 // inner, loose nodes lie outside those intervals, so the walk could not give them in order
 // without a second, stack-based pass over the ancestors and their loose neighbours. Straddling
 // keeps one walk, exact order (a hit is kept by the leaf whose [t0, t1) holds its entry t), and
-// pays in duplicated references, bounded by max_growth per split (measured in the tests'
-// report: references per element).
+// pays in duplicated references, bounded by max_growth per split. Measured with
+// sylva-octree-elements-bench (2 loaded cores): 2.6-2.8 references per sphere on 1e5 uniform or
+// clustered spheres, 8-9 on the overlapping particles of the galaxy and the halo; index 1.8-3.3x
+// the default BIH's bytes; the particle frame within 0.8-2.5x of the BIH's time, in exact order.
 // The levels are built one after another; the nodes of a level are split in parallel.
 #ifndef SYLVA_OCTREE_ELEMENTS_HPP
 #define SYLVA_OCTREE_ELEMENTS_HPP
