@@ -16,22 +16,14 @@
 #include <sylva/render/volume.hpp>
 #include <sylva/volume/read.hpp>
 
+#include "../missing_data.hpp"
+
 using namespace sylva;
 
 namespace {
 
-/// The data file's path; fails when it is missing unless SYLVA_ALLOW_MISSING_DATA=1 (then "").
-std::string data_file(const std::string& name) {
-    std::filesystem::path p = std::filesystem::path(SYLVA_DATA_DIR) / name;
-    if (std::filesystem::exists(p)) return p.string();
-    const char* allow = std::getenv("SYLVA_ALLOW_MISSING_DATA");
-    if (allow && std::string(allow) == "1") {
-        WARN("missing test data " << p.string() << " (SYLVA_ALLOW_MISSING_DATA=1)");
-        return "";
-    }
-    FAIL("missing test data " << p.string() << " (set SYLVA_ALLOW_MISSING_DATA=1 to skip)");
-    return "";
-}
+/// The data file's path; missing data fail the test, or skip it (tests/missing_data.hpp).
+std::string data_file(const std::string& name) { return testdata::require(name).string(); }
 
 }  // namespace
 
@@ -39,7 +31,6 @@ TEST_CASE("data: the octree's full-resolution DVR equals the marcher's on aneuri
     ThreadPool pool(2);
     for (const char* name : {"aneurism_256x256x256_uint8.raw", "bonsai_256x256x256_uint8.raw", "lobster_301x324x56_uint8.raw"}) {
         std::string path = data_file(name);
-        if (path.empty()) continue;
         // The lobster's slices are 1.4 apart (../shared/data/README.md): a spacing whose inverse
         // is not exact, so voxel-space leaf bounds and world-space samples round differently.
         std::optional<vec3> spacing;

@@ -24,3 +24,5 @@
 #include <sylva/shared/octree_iter.h>
 #include <sylva/shared/octree_dvr.h>
 #include <sylva/shared/octree_iso.h>
+#include <sylva/shared/octree_elem_iter.h>
+#include <sylva/shared/octree_particles.h>
