@@ -48,6 +48,9 @@
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512,ml1024] [--size N] [--runs R]
 //                   [--iso V] [--json FILE] [--threads T] [--no-peers]
 // --no-peers leaves out nanovdb-hdda and bih-iso (whose builds dominate the run at ML 512^3).
+// ml1024 needs more than 24 GB even with --no-peers (the float32 grid, its GridWords copy, the
+// slim tree's 4 GB of nodes and the build's level temporaries): on the project's 24 GB machines
+// it was stopped at 24 GB resident before its first frame.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
