@@ -1,6 +1,7 @@
-// sylva-render: builds a BIH over particles (a file or a procedural galaxy) or over the voxels of
-// a volume (a file or a procedural volume; see volume_scene.cpp), renders it on the host or
-// through Vulkan, writes the image, an optional traversal-cost heat map and statistics.
+// sylva-render: builds a BIH (or, with --index octree, the element octree: particle_octree_scene.hpp)
+// over particles (a file or a procedural galaxy) or over the voxels of a volume (a file or a
+// procedural volume; see volume_scene.cpp), renders it on the host or through Vulkan, writes the
+// image, an optional traversal-cost heat map and statistics.
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -17,6 +18,7 @@
 #endif
 
 #include "options.hpp"
+#include "particle_octree_scene.hpp"
 #include "stats.hpp"
 #include "volume_scene.hpp"
 
@@ -77,6 +79,7 @@ int run(const Options& o) {
     s.backend = o.backend;
     std::vector<Sphere> spheres = load_scene(o, s.input);
     ThreadPool pool(o.threads);
+    if (o.particle_octree()) return run_particle_octree(o, spheres, pool, s);
     bih::Tree tree = build_tree(o, spheres, pool);
     auto t0 = std::chrono::steady_clock::now();
     std::vector<std::uint32_t> words = encode_tree(o, tree, spheres);

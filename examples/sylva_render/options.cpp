@@ -22,6 +22,8 @@ const char* usage() {
            "                    [--tf-sequence TF1,TF2,...]\n"
            "isosurfaces:        [--index implicit-kd|dda] [--iso V1[,V2,V3,V4]] [--ikd-bricks N]\n"
            "octree (volumes):   [--index octree] [--brick 16|32] [--lod-pixels P] [--cut-nodes N] [--mode dvr|iso]\n"
+           "octree (particles): --particles FILE --index octree, or --count N --index octree (the galaxy);\n"
+           "                    --backend cpu only\n"
            "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
            "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
@@ -29,11 +31,15 @@ const char* usage() {
            "--index implicit-kd renders exact isosurfaces of up to 4 --iso values over Wald et al.'s\n"
            "implicit min/max kd-tree (--index dda: every cell, the reference; the same image). One\n"
            "isovalue is opaque; with several, all but the last are translucent.\n"
-           "--index octree renders DVR or the first hit of one --iso value through Gobbetti et al.'s\n"
-           "bricked octree; without --lod-pixels the full-resolution cut (the marcher's image), with it\n"
-           "a cut refined while a node's voxels project larger than P pixels, within --cut-nodes nodes.\n"
+           "--index octree renders a volume's DVR or the first hit of one --iso value through Gobbetti\n"
+           "et al.'s bricked octree; without --lod-pixels the full-resolution cut (the marcher's image),\n"
+           "with it a cut refined while a node's voxels project larger than P pixels, within --cut-nodes\n"
+           "nodes.\n"
+           "With --particles (or --count and no input: the galaxy) --index octree renders the particles\n"
+           "through the element octree on the host, in exact depth order (no Vulkan kernel yet).\n"
            "With no input it renders a procedural galaxy of --count particles (default 1,000,000);\n"
-           "with --mode and no input, a procedural volume. Volume files: NAME_XxYxZ_TYPE.raw, .nrrd, .nhdr.\n"
+           "with --mode, or --index octree without --count, and no input, a procedural volume.\n"
+           "Volume files: NAME_XxYxZ_TYPE.raw, .nrrd, .nhdr.\n"
            "--range picks the raw values that map to density 0 and 1, which the threshold, the transfer\n"
            "function, --iso and the LoD read: auto (default) = the file's min/max fields, else the data's\n"
            "min/max; type = 0..255 / 0..65535; LO,HI as given.\n"
@@ -135,7 +141,7 @@ Options parse(int argc, char** argv) {
         else if (a == "-o" || a == "--output") o.output = value();
         else if (a == "--stats-json") o.stats_json = value();
         else if (a == "--heatmap") o.heatmap = value();
-        else if (a == "--count") o.count = static_cast<std::size_t>(number(a, value(), 1, 1e8));
+        else if (a == "--count") o.count = static_cast<std::size_t>(number(a, value(), 1, 1e8)), o.count_given = true;
         else if (a == "--radius-factor") o.radius_factor = static_cast<float>(number(a, value(), 1e-3, 1e3));
         else if (a == "--opacity") o.opacity = static_cast<float>(number(a, value(), 0, 1));
         else if (a == "--alpha-stop") o.alpha_stop = static_cast<float>(number(a, value(), 0, 2));
@@ -158,8 +164,14 @@ Options parse(int argc, char** argv) {
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
     if (o.ikd_index() && !o.volume_input())
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
-    if (o.octree_index() && !o.volume_input())
-        throw std::invalid_argument("--index octree renders volumes only here; particles need --index bih");
+    if (o.particle_octree()) {
+        if (o.backend == "vulkan")
+            throw std::invalid_argument("the element octree's particle renderer runs on the host only; use --backend cpu");
+        for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
+            for (int i = 1; i < argc; ++i)
+                if (std::string(argv[i]) == opt)
+                    throw std::invalid_argument(std::string(opt) + " applies to the bricked octree of volumes, not to particles");
+    }
     if (!o.octree_index()) {
         for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
             for (int i = 1; i < argc; ++i)
@@ -172,7 +184,7 @@ Options parse(int argc, char** argv) {
     if (o.ikd_index()) o.mode = "iso";
     if (o.isos.size() > 1 && !o.ikd_index())
         throw std::invalid_argument("several --iso values need --index implicit-kd or dda");
-    if (o.octree_index() && o.mode.empty()) o.mode = "dvr";
+    if (o.octree_index() && o.volume_input() && o.mode.empty()) o.mode = "dvr";
     if (o.kd_index() && o.mode == "iso")
         throw std::invalid_argument("--index " + o.index + " renders --mode dvr only (the marcher with empty-space skipping)");
     if (o.range.mode != sylva::volume::ValueRange::Mode::Auto && (!o.volume_input() || o.procedural_volume()))

@@ -18,7 +18,8 @@ struct Options {
                                      ///< marcher, volumes only; kd-*: the marcher with empty-space skipping by a
                                      ///< kd-tree; implicit-kd: exact isosurfaces over Wald's implicit kd-tree,
                                      ///< dda: the same over every cell (the reference); octree: Gobbetti's
-                                     ///< bricked octree, DVR or first-hit iso; volumes only)
+                                     ///< bricked octree, DVR or first-hit iso, for volumes; the element
+                                     ///< octree for --particles or --count (host only))
     std::uint32_t brick = 32;        ///< --brick 16|32: octree brick size
     float lod_pixels = 0.0f;         ///< --lod-pixels P: view-dependent octree cut (0: full resolution)
     std::uint32_t cut_nodes = 1u << 20;  ///< --cut-nodes N: node budget of the octree cut
@@ -47,6 +48,7 @@ struct Options {
     std::string stats_json;          ///< --stats-json FILE
     std::string heatmap;             ///< --heatmap FILE
     std::size_t count = 1000000;     ///< --count N: particles of the procedural galaxy
+    bool count_given = false;        ///< --count was given: with --index octree and no input, the galaxy
     float radius_factor = 0.25f;     ///< --radius-factor F: radius in mean spacings (files)
     float opacity = 0.12f;           ///< --opacity A (files)
     float alpha_stop = 0.99f;        ///< --alpha-stop A: early ray termination
@@ -77,8 +79,12 @@ struct Options {
     /// True when this run renders a volume (a file, or the procedural volume for --mode or a
     /// kd-tree index).
     [[nodiscard]] bool volume_input() const {
-        return !volume.empty() || ((!mode.empty() || kd_index() || ikd_index() || octree_index()) && particles.empty());
+        return !volume.empty() ||
+               ((!mode.empty() || kd_index() || ikd_index() || (octree_index() && !count_given)) && particles.empty());
     }
+    /// True when this run renders particles (a file or the procedural galaxy) through the
+    /// element octree (--index octree with --particles, or with --count and no input).
+    [[nodiscard]] bool particle_octree() const { return octree_index() && !volume_input(); }
 };
 
 /// Parses argv; throws std::invalid_argument with a message naming the bad option.

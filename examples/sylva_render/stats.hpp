@@ -75,6 +75,14 @@ struct Stats {
         float lod_pixels = 0.0f;  ///< 0: the full-resolution cut
     } octree;
 
+    /// Element octree runs over particles (--particles or --count with --index octree).
+    struct ElementOctreeRows {
+        bool present = false;
+        std::uint32_t levels = 0;  ///< lattice levels (the deepest node is max_depth)
+        std::size_t octree_nodes = 0, references = 0, index_bytes = 0, record_bytes = 0;
+        double references_per_element = 0;
+    } elements_octree;
+
     void fill(const sylva::bih::Tree& t, std::size_t encoded_bytes, const sylva::Frame& f) {
         elements = t.stats.elements;
         nodes = t.stats.nodes;
@@ -129,6 +137,11 @@ struct Stats {
                << (octree.lod_pixels > 0.0f ? " (--lod-pixels " + std::to_string(octree.lod_pixels) + ")"
                                             : std::string(" (full resolution)"))
                << "\n";
+        if (elements_octree.present)
+            os << "element octree   " << elements_octree.octree_nodes << " nodes, " << elements_octree.levels
+               << " lattice levels, " << elements_octree.references << " references ("
+               << elements_octree.references_per_element << " per particle); index " << elements_octree.index_bytes
+               << " B, records " << elements_octree.record_bytes << " B\n";
         if (errors) os << "ERRORS           " << errors << " rays ended on a corrupted encoding\n";
     }
 
@@ -227,6 +240,12 @@ struct Stats {
                 << ", \"index_bytes\": " << octree.index_bytes << ", \"brick_bytes\": " << octree.brick_bytes
                 << ", \"cut_nodes\": " << octree.cut_nodes << ", \"cut_leaves\": " << octree.cut_leaves
                 << ", \"cut_deepest_level\": " << octree.cut_deepest << ", \"lod_pixels\": " << octree.lod_pixels;
+        if (elements_octree.present)
+            out << ", \"octree_nodes\": " << elements_octree.octree_nodes << ", \"octree_levels\": " << elements_octree.levels
+                << ", \"references\": " << elements_octree.references
+                << ", \"references_per_element\": " << elements_octree.references_per_element
+                << ", \"index_bytes\": " << elements_octree.index_bytes
+                << ", \"record_bytes\": " << elements_octree.record_bytes;
         if (iso.present) {
             out << ", \"isos\": [";
             for (std::size_t k = 0; k < iso.isos.size(); ++k) out << (k ? ", " : "") << iso.isos[k];

@@ -1,0 +1,96 @@
+// sylva-render, particles with --index octree: the element octree (sylva/octree/elements.hpp)
+// built over the particles' spheres, encoded (sylva/octree/elements_encode.hpp) and rendered on
+// the host in exact depth order (sylva/render/octree_particles.hpp). There is no Vulkan kernel:
+// options.cpp refuses --backend vulkan for it. Header only: main.cpp, the one includer,
+// dispatches here.
+#ifndef SYLVA_RENDER_PARTICLE_OCTREE_SCENE_HPP
+#define SYLVA_RENDER_PARTICLE_OCTREE_SCENE_HPP
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <iostream>
+#include <numeric>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <sylva/core/executor.hpp>
+#include <sylva/octree/elements.hpp>
+#include <sylva/octree/elements_encode.hpp>
+#include <sylva/render/camera.hpp>
+#include <sylva/render/image.hpp>
+#include <sylva/render/octree_particles.hpp>
+#include <sylva/render/particles.hpp>
+
+#include "options.hpp"
+#include "stats.hpp"
+
+namespace sylva_render {
+
+/// Builds, encodes and renders `spheres` through the element octree; fills `s` (input already
+/// set) and writes the image, heat map and statistics. Returns the exit status.
+inline int run_particle_octree(const Options& o, std::span<const sylva::Sphere> spheres, sylva::ThreadPool& pool,
+                               Stats& s) {
+    using namespace sylva;
+    if (o.backend != "cpu")  // options.cpp refuses it; kept here so that no caller can reach Vulkan
+        throw Error("the element octree's particle renderer runs on the host only; use --backend cpu");
+    octree::ElementTree et = octree::build_elements(spheres, octree::ElementConfig{}, pool);
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<std::uint32_t> words = octree::encode_elements(et);
+    std::vector<std::uint32_t> identity(spheres.size());
+    std::iota(identity.begin(), identity.end(), 0u);
+    std::vector<std::uint32_t> records = pack_particles(spheres, std::span<const std::uint32_t>(identity));
+    s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+
+    Aabb box;
+    for (const Sphere& p : spheres) box.extend(bounds_of(p));
+    vec3 from = o.view ? vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : vec3(0.4f, 0.7f, 1.0f);
+    CameraFrame cam = Camera::framing(box, from).frame(o.width, o.height);
+    s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
+    Frame f = render_particles_octree_cpu(words, records, cam, o.width, o.height, pool, ParticleRenderConfig{o.alpha_stop});
+
+    s.index = "octree";
+    s.elements = et.element_count;
+    s.nodes = et.tree.nodes.size();
+    std::size_t leaves = 0, inner = 0, single = 0;
+    std::uint32_t depth = 0;
+    for (const octree::Node& n : et.tree.nodes) {
+        depth = std::max(depth, n.level);
+        if (n.leaf()) {
+            ++leaves;
+        } else {
+            ++inner;
+            single += std::popcount(n.child_mask) == 1 ? 1u : 0u;
+        }
+    }
+    s.leaves = leaves;
+    s.max_depth = depth;
+    s.single_child_percent = inner ? 100.0 * static_cast<double>(single) / static_cast<double>(inner) : 0.0;
+    s.build_ms = et.build_ms;
+    Stats::ElementOctreeRows& r = s.elements_octree;
+    r.present = true;
+    r.levels = et.tree.levels;
+    r.octree_nodes = et.tree.nodes.size();
+    r.references = et.refs.size();
+    r.references_per_element =
+        et.element_count ? static_cast<double>(et.refs.size()) / static_cast<double>(et.element_count) : 0.0;
+    r.index_bytes = words.size() * 4;
+    r.record_bytes = records.size() * 4;
+    s.bytes = r.index_bytes + r.record_bytes;
+
+    write_frame(o.output, f, vec3(0.0f));
+    if (!o.heatmap.empty()) s.heatmap_peak = write_heatmap(o.heatmap, f);
+    s.fill_frame(f);  // counts the rays that met a refused encoding (steps 0xFFFFFFFF) as errors
+    if (!o.quiet) s.print(std::cout);
+    if (!o.stats_json.empty()) s.write_json(o.stats_json);
+    if (s.visible_pixels == 0)
+        std::cerr << "sylva-render: nothing visible: all " << s.width << "x" << s.height
+                  << " pixels are fully transparent (the image is written all the same); try a larger --opacity or "
+                     "--radius-factor, or another --view\n";
+    return s.errors ? 1 : 0;
+}
+
+}  // namespace sylva_render
+
+#endif
