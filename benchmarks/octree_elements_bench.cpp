@@ -11,13 +11,20 @@
 // references' duplication bound, leaf_elements 8); the BIH as bih::Config{} (one trimmed sphere
 // a leaf) and bih::Config::for_queries() with LeafRecords (its fastest query path). Every
 // octree's first hits and all-hit lists are checked ray by ray against the BIH query tree's:
-// any difference fails the run (exit 1).
+// any difference fails the run (exit 1). With Embree 3 (SYLVA_BENCH_EMBREE, run_embree.cpp as in
+// sylva-bench) a third impl "embree" (its sphere primitive, the same rays): build ms (scene +
+// geometry + commit), its bytes (memory monitor), first hit (rtcIntersect1) and all hits in
+// order (a context filter collecting every hit, sorted by t). Its first hits are checked against
+// the octree's (octree-g3): same element, or entry t within 1e-4 of the set's extent (a tie);
+// the mismatches are a metric, and more than 0.1% of the rays fails the run.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <optional>
 #include <string>
 
 #include <sylva/bih/build.hpp>
@@ -30,8 +37,17 @@
 #include <sylva/render/particles.hpp>
 
 #include "bench.hpp"
+#if SYLVA_BENCH_EMBREE
+#include "run_embree.hpp"
+#endif
 
 using namespace sylva;
+
+#if !SYLVA_BENCH_EMBREE
+namespace bench {
+struct EmbreePeer {};  // no peer: never constructed
+}  // namespace bench
+#endif
 
 namespace {
 
@@ -107,7 +123,7 @@ void bench_queries(bench::Report& rep, const std::string& cs, const std::string&
 }
 
 int run_set(bench::Report& rep, const std::string& cs, const std::vector<Sphere>& spheres, const Args& a,
-            ThreadPool& pool, std::size_t ray_count, bool render) {
+            ThreadPool& pool, std::size_t ray_count, bool render, [[maybe_unused]] bench::EmbreePeer* embree) {
     std::span<const Sphere> s(spheres);
     Aabb box;
     for (const Sphere& p : spheres) box.extend(p.bounds());
@@ -145,6 +161,7 @@ int run_set(bench::Report& rep, const std::string& cs, const std::vector<Sphere>
     // The default configuration also over the spheres in Morton order (octree::morton_order),
     // results mapped back to the original indices.
     std::vector<std::uint32_t> perm = octree::morton_order(s);
+    Results oct;  // octree-g3's results (Embree is checked against them)
     std::vector<Sphere> sorted;
     for (std::uint32_t i : perm) sorted.push_back(spheres[i]);
     for (int variant = 0; variant < 4; ++variant) {
@@ -181,6 +198,7 @@ int run_set(bench::Report& rep, const std::string& cs, const std::vector<Sphere>
             bool first_ok = got.first[i] == ref.first[i] || (morton && got.first_t0[i] == ref.first_t0[i]);  // a tie
             bad += !first_ok || got.all[i] != ref.all[i];
         }
+        if (variant == 1) oct = got;
         if (bad) {
             std::cerr << cs << " " << impl << ": " << bad << " rays differ from the BIH\n";
             ++failures;
@@ -189,6 +207,54 @@ int run_set(bench::Report& rep, const std::string& cs, const std::vector<Sphere>
             rep.add(cs + "/particles", impl, "frame_ms",
                     timed(a.runs, [&] { (void)render_particles_octree_cpu(ow, morton ? orec_sorted : orec, cam, 320, 240, pool); }), "ms");
     }
+#if SYLVA_BENCH_EMBREE
+    if (embree) {
+        rep.add(cs + "/build", "embree", "build_ms", timed(a.runs, [&] { (void)embree->build(spheres); }), "ms");
+        rep.add(cs + "/build", "embree", "index_bytes", double(embree->scene_bytes()), "bytes");
+        Results em;
+        bench_queries(
+            rep, cs, "embree", rays, pool, a.runs,
+            [&](const Ray& r) -> std::optional<bih::ElementHit> {
+                bench::EmbreePeer::Hit h = embree->first_hit(r);
+                if (h.prim == bench::kNoHit) return std::nullopt;
+                bih::ElementHit e;
+                e.element = h.prim;
+                e.t.t0 = h.t;
+                return e;
+            },
+            [&](const Ray& r, std::vector<bih::ElementHit>& h) {
+                thread_local std::vector<bench::EmbreePeer::Hit> hs;
+                embree->hits_along(r, hs);
+                h.clear();
+                for (const auto& x : hs) {
+                    bih::ElementHit e;
+                    e.element = x.prim;
+                    e.t.t0 = x.t;
+                    h.push_back(e);
+                }
+            },
+            em);
+        // First hits against the octree's: the same element with t close, or another element
+        // at (nearly) the same t (a tie within the tolerance).
+        vec3 e = box.extent();
+        float tol = 1e-4f * std::max({e.x, e.y, e.z});
+        std::size_t first_bad = 0, all_bad = 0;
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            bool hit_o = oct.first[i] != 0xFFFFFFFFu, hit_e = em.first[i] != 0xFFFFFFFFu;
+            bool ok = hit_o == hit_e && (!hit_o || std::abs(oct.first_t0[i] - em.first_t0[i]) <= tol);
+            first_bad += !ok;
+            all_bad += em.all[i] != oct.all[i];
+        }
+        rep.add(cs + "/first", "embree", "mismatches_vs_octree", double(first_bad), "rays");
+        rep.add(cs + "/all", "embree", "lists_differing_vs_octree", double(all_bad), "rays");
+        if (double(first_bad) > 0.001 * double(rays.size())) {
+            std::cerr << cs << " embree: " << first_bad << " first hits differ from the octree's (over 0.1%)\n";
+            ++failures;
+        } else if (first_bad) {
+            std::cout << cs << " embree: " << first_bad << " first hits differ from the octree's (within 0.1%)\n";
+        }
+    }
+#endif
     return failures;
 }
 
@@ -211,17 +277,22 @@ int main(int argc, char** argv) {
         ThreadPool pool(a.threads);
         bench::Report rep;
         rep.add("machine", "machine", "threads", double(pool.concurrency()), "threads");
+        bench::EmbreePeer* embree = nullptr;
+#if SYLVA_BENCH_EMBREE
+        bench::EmbreePeer peer(pool.concurrency());
+        embree = &peer;
+#endif
         std::size_t n = a.quick ? 10000 : 100000, rays = a.quick ? 20000 : 100000;
         int failures = 0;
         failures += run_set(rep, "uniform-" + bench::size_label(n), bench::make_spheres(n, bench::Distribution::Uniform, 1), a,
-                            pool, rays, false);
+                            pool, rays, false, embree);
         failures += run_set(rep, "clustered-" + bench::size_label(n),
-                            bench::make_spheres(n, bench::Distribution::Clustered, 2), a, pool, rays, false);
+                            bench::make_spheres(n, bench::Distribution::Clustered, 2), a, pool, rays, false, embree);
         failures += run_set(rep, "galaxy-" + bench::size_label(a.quick ? 20000 : 200000),
-                            io::synthetic_galaxy(a.quick ? 20000 : 200000), a, pool, rays / 2, true);
+                            io::synthetic_galaxy(a.quick ? 20000 : 200000), a, pool, rays / 2, true, embree);
         std::string halo = std::string(SYLVA_DATA_DIR) + "/dark_matter_halo_32314x3_float32.raw";
         if (std::ifstream(halo)) {
-            failures += run_set(rep, "halo-32314", io::spheres_from_points(io::read_points(halo)), a, pool, rays / 2, true);
+            failures += run_set(rep, "halo-32314", io::spheres_from_points(io::read_points(halo)), a, pool, rays / 2, true, embree);
         } else {
             std::cout << "halo: " << halo << " missing, left out\n";
         }

@@ -178,4 +178,20 @@ HitList EmbreePeer::hit_list() const {
     };
 }
 
+EmbreePeer::Hit EmbreePeer::first_hit(const sylva::Ray& ray) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh = make_ray(ray);
+    rtcIntersect1(scene_, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {std::numeric_limits<float>::infinity(), kNoHit};
+    return {rh.ray.tfar, rh.hit.primID};
+}
+
+void EmbreePeer::hits_along(const sylva::Ray& ray, std::vector<Hit>& out) const {
+    thread_local Collector c;
+    trace_all(scene_, c, ray);
+    out.clear();
+    for (const auto& h : c.hits) out.push_back({h.t, h.prim});
+}
+
 }  // namespace bench

@@ -39,6 +39,15 @@ public:
     /// The ids all_hits finds along one ray (for re-examining disagreements).
     [[nodiscard]] HitList hit_list() const;
 
+    /// One ray at a time (callers running their own loops): the nearest hit (prim kNoHit
+    /// where none), and all hits in order of entry t (as all_hits finds them) into `out`.
+    struct Hit {
+        float t;
+        std::uint32_t prim;
+    };
+    [[nodiscard]] Hit first_hit(const sylva::Ray& ray) const;
+    void hits_along(const sylva::Ray& ray, std::vector<Hit>& out) const;
+
 private:
     void release_scene();
     void check(const char* what) const;
