@@ -57,38 +57,14 @@ SYLVA_BEGIN_NAMESPACE
 /// valid = 0 on any failed check (magic, version, format 1, extents, B = 4, levels, sizes,
 /// spacing, 1 / spacing, origin).
 SYLVA_FN SylvaOctHeader sylva_octe_read_header(SYLVA_BUF(words), uint word_count) {
-    SylvaOctHeader h;
-    h.dims = uvec3(SYLVA_LOAD(words, 2u), SYLVA_LOAD(words, 3u), SYLVA_LOAD(words, 4u));
-    uint packed = SYLVA_LOAD(words, 5u);
-    h.brick_size = packed & 255u;
-    h.border = (packed >> 8u) & 255u;
-    h.levels = (packed >> 16u) & 255u;
-    h.format = packed >> 24u;
-    h.node_count = SYLVA_LOAD(words, 6u);
-    h.brick_count = SYLVA_LOAD(words, 7u);
-    h.brick_words = SYLVA_LOAD(words, 8u);
-    h.spacing = vec3(uintBitsToFloat(SYLVA_LOAD(words, 10u)), uintBitsToFloat(SYLVA_LOAD(words, 11u)),
-                     uintBitsToFloat(SYLVA_LOAD(words, 12u)));
-    h.inv_spacing = vec3(uintBitsToFloat(SYLVA_LOAD(words, 13u)), uintBitsToFloat(SYLVA_LOAD(words, 14u)),
-                         uintBitsToFloat(SYLVA_LOAD(words, 15u)));
-    h.origin = vec3(uintBitsToFloat(SYLVA_LOAD(words, 16u)), uintBitsToFloat(SYLVA_LOAD(words, 17u)),
-                    uintBitsToFloat(SYLVA_LOAD(words, 18u)));
-    h.valid = 0u;
-    bool ok = word_count >= SYLVA_OCT_HEADER_WORDS && SYLVA_LOAD(words, 0u) == SYLVA_OCT_MAGIC &&
-              SYLVA_LOAD(words, 1u) == SYLVA_OCT_VERSION && SYLVA_LOAD(words, 9u) == word_count &&
-              SYLVA_LOAD(words, 19u) == 0u && h.format == SYLVA_OCTE_FORMAT_ELEMENTS;
-    ok = ok && h.dims.x >= 1u && h.dims.y >= 1u && h.dims.z >= 1u && h.dims.x <= SYLVA_OCT_MAX_DIM &&
-         h.dims.y <= SYLVA_OCT_MAX_DIM && h.dims.z <= SYLVA_OCT_MAX_DIM;
+    SylvaOctHeader h = sylva_oct_decode_header(SYLVA_PASS_BUF(words));
+    bool ok = sylva_oct_common_header_ok(SYLVA_PASS_BUF(words), word_count, h) && h.format == SYLVA_OCTE_FORMAT_ELEMENTS;
     ok = ok && h.brick_size == SYLVA_OCTE_CELLS && h.border == 1u;
     ok = ok && h.levels == sylva_oct_level_count(h.dims, h.brick_size) && h.levels <= SYLVA_OCT_MAX_LEVELS;
     // 20 + 16 N + R == word_count, without overflow.
     uint body = word_count - SYLVA_OCT_HEADER_WORDS;
     ok = ok && h.node_count >= 1u && h.node_count <= body / SYLVA_OCT_NODE_WORDS &&
          body - SYLVA_OCT_NODE_WORDS * h.node_count == h.brick_words;
-    ok = ok && sylva_oct_positive(h.spacing.x) && sylva_oct_positive(h.spacing.y) && sylva_oct_positive(h.spacing.z);
-    ok = ok && sylva_oct_positive(h.inv_spacing.x) && sylva_oct_positive(h.inv_spacing.y) &&
-         sylva_oct_positive(h.inv_spacing.z);
-    ok = ok && sylva_oct_finite(h.origin.x) && sylva_oct_finite(h.origin.y) && sylva_oct_finite(h.origin.z);
     if (ok) h.valid = 1u;
     return h;
 }

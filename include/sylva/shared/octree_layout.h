@@ -106,12 +106,9 @@ SYLVA_FN bool sylva_oct_positive(float x) { return x > 0.0f && x < sylva_inf(); 
 /// True for a finite float.
 SYLVA_FN bool sylva_oct_finite(float x) { return x > -sylva_inf() && x < sylva_inf(); }
 
-/// Reads and checks the header of an index of `word_count` words beside a brick buffer of
-/// `brick_buffer_words` words: magic, version, extents, brick size, border, level count, format,
-/// node count against the size, brick words and count against the brick buffer, spacing,
-/// 1 / spacing and origin. Invalid: valid = 0. Node records are not checked here
-/// (sylva/octree/validate.hpp does; the iterator stops with an error on inconsistent ones).
-SYLVA_FN SylvaOctHeader sylva_oct_read_header(SYLVA_BUF(words), uint word_count, uint brick_buffer_words) {
+/// The header's fields as stored, unchecked (valid = 0): the readers below and the element
+/// octree's (sylva/shared/octree_elem_iter.h) check them for their format.
+SYLVA_FN SylvaOctHeader sylva_oct_decode_header(SYLVA_BUF(words)) {
     SylvaOctHeader h;
     h.dims = uvec3(SYLVA_LOAD(words, 2u), SYLVA_LOAD(words, 3u), SYLVA_LOAD(words, 4u));
     uint packed = SYLVA_LOAD(words, 5u);
@@ -129,11 +126,33 @@ SYLVA_FN SylvaOctHeader sylva_oct_read_header(SYLVA_BUF(words), uint word_count,
     h.origin = vec3(uintBitsToFloat(SYLVA_LOAD(words, 16u)), uintBitsToFloat(SYLVA_LOAD(words, 17u)),
                     uintBitsToFloat(SYLVA_LOAD(words, 18u)));
     h.valid = 0u;
+    return h;
+}
+
+/// The checks every octree header passes whatever its format (word 5 bits 24-31): magic,
+/// version, the total size in word 9, reserved word 19, extents, spacing, 1 / spacing, origin.
+/// Brick size, border, levels and the sizes after the header depend on the format.
+SYLVA_FN bool sylva_oct_common_header_ok(SYLVA_BUF(words), uint word_count, SylvaOctHeader h) {
     bool ok = word_count >= SYLVA_OCT_HEADER_WORDS && SYLVA_LOAD(words, 0u) == SYLVA_OCT_MAGIC &&
               SYLVA_LOAD(words, 1u) == SYLVA_OCT_VERSION && SYLVA_LOAD(words, 9u) == word_count &&
-              SYLVA_LOAD(words, 19u) == 0u && h.format == SYLVA_OCT_FORMAT_FLOAT32;
+              SYLVA_LOAD(words, 19u) == 0u;
     ok = ok && h.dims.x >= 1u && h.dims.y >= 1u && h.dims.z >= 1u && h.dims.x <= SYLVA_OCT_MAX_DIM &&
          h.dims.y <= SYLVA_OCT_MAX_DIM && h.dims.z <= SYLVA_OCT_MAX_DIM;
+    ok = ok && sylva_oct_positive(h.spacing.x) && sylva_oct_positive(h.spacing.y) && sylva_oct_positive(h.spacing.z);
+    ok = ok && sylva_oct_positive(h.inv_spacing.x) && sylva_oct_positive(h.inv_spacing.y) &&
+         sylva_oct_positive(h.inv_spacing.z);
+    ok = ok && sylva_oct_finite(h.origin.x) && sylva_oct_finite(h.origin.y) && sylva_oct_finite(h.origin.z);
+    return ok;
+}
+
+/// Reads and checks the header of an index of `word_count` words beside a brick buffer of
+/// `brick_buffer_words` words: the common checks, format 0 (float32 bricks), brick size,
+/// border, level count, node count against the size, brick words and count against the brick
+/// buffer. Invalid: valid = 0. Node records are not checked here (sylva/octree/validate.hpp
+/// does; the iterator stops with an error on inconsistent ones).
+SYLVA_FN SylvaOctHeader sylva_oct_read_header(SYLVA_BUF(words), uint word_count, uint brick_buffer_words) {
+    SylvaOctHeader h = sylva_oct_decode_header(SYLVA_PASS_BUF(words));
+    bool ok = sylva_oct_common_header_ok(SYLVA_PASS_BUF(words), word_count, h) && h.format == SYLVA_OCT_FORMAT_FLOAT32;
     ok = ok && h.brick_size >= 4u && h.brick_size <= 64u && (h.brick_size & (h.brick_size - 1u)) == 0u &&
          h.border >= 1u && h.border <= 2u;
     ok = ok && h.levels == sylva_oct_level_count(h.dims, h.brick_size) && h.levels <= SYLVA_OCT_MAX_LEVELS;
@@ -144,10 +163,6 @@ SYLVA_FN SylvaOctHeader sylva_oct_read_header(SYLVA_BUF(words), uint word_count,
          (word_count - SYLVA_OCT_HEADER_WORDS) % SYLVA_OCT_NODE_WORDS == 0u;
     ok = ok && h.brick_words > 0u && brick_buffer_words / h.brick_words == h.brick_count &&
          brick_buffer_words % h.brick_words == 0u;
-    ok = ok && sylva_oct_positive(h.spacing.x) && sylva_oct_positive(h.spacing.y) && sylva_oct_positive(h.spacing.z);
-    ok = ok && sylva_oct_positive(h.inv_spacing.x) && sylva_oct_positive(h.inv_spacing.y) &&
-         sylva_oct_positive(h.inv_spacing.z);
-    ok = ok && sylva_oct_finite(h.origin.x) && sylva_oct_finite(h.origin.y) && sylva_oct_finite(h.origin.z);
     if (ok) h.valid = 1u;
     return h;
 }
