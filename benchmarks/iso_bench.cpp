@@ -82,6 +82,7 @@
 #include <nanovdb/util/Ray.h>
 #endif
 
+#include "bench.hpp"
 #include "cli.hpp"
 
 using namespace sylva;
@@ -550,14 +551,12 @@ void print(const std::vector<Record>& rs) {
     for (const Record& r : rs) std::printf("%-10s %-18s %-26s %14.4g %s\n", r.c.c_str(), r.impl.c_str(), r.metric.c_str(), r.value, r.unit.c_str());
 }
 
+/// The records as JSON through the benchmarks' shared writer (report.cpp: escaped strings,
+/// numbers checked finite).
 void write_json(const std::string& path, const std::vector<Record>& rs) {
-    std::ofstream f(path);
-    f << "[\n";
-    for (std::size_t i = 0; i < rs.size(); ++i)
-        f << "  {\"case\": \"" << rs[i].c << "\", \"impl\": \"" << rs[i].impl << "\", \"metric\": \"" << rs[i].metric
-          << "\", \"value\": " << rs[i].value << ", \"unit\": \"" << rs[i].unit << "\"}" << (i + 1 < rs.size() ? "," : "") << "\n";
-    f << "]\n";
-    if (!f) throw Error("sylva-iso-bench: cannot write " + path);
+    bench::Report report;
+    for (const Record& r : rs) report.add(r.c, r.impl, r.metric, r.value, r.unit);
+    report.write_json(path);
 }
 
 }  // namespace

@@ -35,6 +35,7 @@
 #include <sylva/volume/read.hpp>
 #include <sylva/volume/transfer_function.hpp>
 
+#include "bench.hpp"
 #include "cli.hpp"
 
 #ifndef SYLVA_OCTREE_BENCH_DATA
@@ -226,18 +227,13 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     add("iso-lod", "pixels_differing_vs_iso_full", double(di.pixels_differing), "pixels");
 }
 
+/// The records as JSON through the benchmarks' shared writer (report.cpp); a value that is not
+/// finite is written as 0, as before.
 void write_json(const std::string& path, const std::vector<Record>& rs) {
-    std::ofstream f(path);
-    if (!f) throw Error("sylva-octree-bench: cannot write " + path);
-    f << "[\n";
-    for (std::size_t i = 0; i < rs.size(); ++i) {
-        char num[40];
-        std::snprintf(num, sizeof num, "%.9g", std::isfinite(rs[i].value) ? rs[i].value : 0.0);
-        f << "  {\"case\": \"" << rs[i].case_name << "\", \"impl\": \"" << rs[i].impl << "\", \"metric\": \""
-          << rs[i].metric << "\", \"value\": " << num << ", \"unit\": \"" << rs[i].unit << "\"}"
-          << (i + 1 < rs.size() ? ",\n" : "\n");
-    }
-    f << "]\n";
+    bench::Report report;
+    for (const Record& r : rs)
+        report.add(r.case_name, r.impl, r.metric, std::isfinite(r.value) ? r.value : 0.0, r.unit);
+    report.write_json(path);
 }
 
 }  // namespace
