@@ -3,6 +3,9 @@
 #include <atomic>
 #include <numeric>
 #include <stdexcept>
+#include <thread>
+#include <functional>
+#include <chrono>
 
 #include <sylva/core/executor.hpp>
 #include <sylva/core/progress.hpp>
@@ -52,4 +55,74 @@ TEST_CASE("the progress bar stays silent for quick work and draws for slow work"
     CHECK(out.find("slow") != std::string::npos);
     CHECK(out.find("100%") != std::string::npos);
     CHECK(out.find("quick") == std::string::npos);
+}
+
+TEST_CASE("parallel_for's chunks cover ranges of every size exactly once, nested inside invoke", "[executor]") {
+    ThreadPool pool(4);
+    for (std::size_t n : {1u, 2u, 3u, 7u, 64u, 1000u, 4099u}) {
+        for (std::size_t grain : {1u, 5u, 100u}) {
+            std::vector<std::atomic<int>> a(n), b(n);
+            auto fill = [&](std::vector<std::atomic<int>>& v) {
+                pool.parallel_for(0, n, grain, [&](std::size_t lo, std::size_t hi) {
+                    REQUIRE(lo < hi);
+                    for (std::size_t i = lo; i < hi; ++i) v[i]++;
+                });
+            };
+            pool.invoke([&] { fill(a); }, [&] { fill(b); });
+            for (std::size_t i = 0; i < n; ++i) {
+                REQUIRE(a[i].load() == 1);
+                REQUIRE(b[i].load() == 1);
+            }
+        }
+    }
+}
+
+TEST_CASE("after an exception every chunk has finished and the pool keeps working", "[executor]") {
+    ThreadPool pool(3);
+    for (int round = 0; round < 50; ++round) {
+        std::atomic<int> running{0}, started{0}, ended{0};
+        struct Running {
+            std::atomic<int>& n;
+            std::atomic<int>& ended;
+            ~Running() {
+                n--;
+                ended++;
+            }
+        };
+        CHECK_THROWS_AS(pool.parallel_for(0, 64, 1,
+                                          [&](std::size_t lo, std::size_t) {
+                                              running++;
+                                              started++;
+                                              Running guard{running, ended};
+                                              std::this_thread::sleep_for(std::chrono::microseconds(50));
+                                              if (lo == 0) throw std::runtime_error("chunk");
+                                          }),
+                        std::runtime_error);
+        // No chunk still runs once parallel_for has returned (the caller's stack is gone),
+        // and every chunk ran: the others are not abandoned by the throw.
+        CHECK(running.load() == 0);
+        CHECK(ended.load() == started.load());
+        CHECK(started.load() == 11);  // chunks of ceil(64 / min(64, 4 * concurrency())) = 6
+    }
+    std::atomic<long> sum{0};
+    pool.parallel_for(0, 1000, 1, [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t i = lo; i < hi; ++i) sum += long(i);
+    });
+    CHECK(sum.load() == 999L * 1000L / 2L);
+}
+
+TEST_CASE("deeply nested invokes and parallel_fors from every thread finish", "[executor]") {
+    ThreadPool pool(2);
+    std::atomic<long> leaves{0};
+    std::function<void(int)> tree = [&](int depth) {
+        if (depth == 0) {
+            leaves++;
+            return;
+        }
+        pool.parallel_for(0, 3, 1, [&](std::size_t lo, std::size_t hi) {
+            for (std::size_t i = lo; i < hi; ++i) pool.invoke([&] { tree(depth - 1); }, [&] { tree(depth - 1); });
+        });
+    };
+    tree(4);
+    CHECK(leaves.load() == 1296);  // (3 * 2)^4
 }

@@ -9,7 +9,7 @@
 #include <cstddef>
 #include <deque>
 #include <exception>
-#include <functional>
+#include <type_traits>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -32,25 +32,33 @@ struct SerialExecutor {
     }
 };
 
-/// A fixed pool of worker threads. Waiting callers help run queued tasks, so nested
-/// parallelism (invoke inside invoke) cannot deadlock. Threads are joined in the destructor.
+/// A fixed pool of worker threads.
+///
+/// Tasks are two words (a function pointer and a pointer to a job on the caller's stack), so
+/// spawning allocates nothing per task. A caller waiting for its tasks runs queued tasks while
+/// there are any (so nested parallelism, invoke inside invoke, cannot deadlock) and otherwise
+/// blocks on the pool's condition variable until one of its tasks finishes or a task arrives:
+/// it never spins. parallel_for queues at most concurrency() - 1 helper tasks that take the
+/// range's chunks from an atomic counter, the caller taking them too. Exceptions: the first
+/// one thrown by a chunk or a callable is rethrown to the caller after every task of the call
+/// has finished, and a failure to queue a task (std::bad_alloc) still waits for the tasks
+/// already queued before it propagates, so no queued task outlives the stack it points to.
+/// Threads are joined in the destructor.
 class ThreadPool {
 public:
     /// `threads` = 0 uses std::thread::hardware_concurrency().
     explicit ThreadPool(std::size_t threads = 0) {
         std::size_t n = threads ? threads : std::max<std::size_t>(1, std::thread::hardware_concurrency());
-        for (std::size_t i = 1; i < n; ++i) workers_.emplace_back([this] { work(); });
+        try {
+            for (std::size_t i = 1; i < n; ++i) workers_.emplace_back([this] { work(); });
+        } catch (...) {
+            stop();
+            throw;
+        }
     }
     ThreadPool(const ThreadPool&) = delete;
     ThreadPool& operator=(const ThreadPool&) = delete;
-    ~ThreadPool() {
-        {
-            std::lock_guard lock(mutex_);
-            stopping_ = true;
-        }
-        wake_.notify_all();
-        for (auto& w : workers_) w.join();
-    }
+    ~ThreadPool() { stop(); }
 
     [[nodiscard]] std::size_t concurrency() const { return workers_.size() + 1; }
 
@@ -63,35 +71,56 @@ public:
             f(begin, end);
             return;
         }
-        std::size_t step = (end - begin + chunks - 1) / chunks;
         Group group(*this);
-        for (std::size_t lo = begin; lo < end; lo += step) {
-            std::size_t hi = std::min(end, lo + step);
-            group.spawn([&f, lo, hi] { f(lo, hi); });
-        }
+        RangeJob<std::remove_reference_t<F>> job{&f, &group, begin, end, (end - begin + chunks - 1) / chunks, {begin}};
+        std::size_t helpers = std::min(chunks, concurrency()) - 1;
+        for (std::size_t i = 0; i < helpers; ++i) group.spawn(&RangeJob<std::remove_reference_t<F>>::run, &job);
+        job.drain();
         group.wait();
     }
 
     template <class F, class G>
     void invoke(F&& f, G&& g) {
         Group group(*this);
-        group.spawn([&g] { g(); });
-        group.run_here([&f] { f(); });
+        CallJob<std::remove_reference_t<G>> job{&g, &group};
+        group.spawn(&CallJob<std::remove_reference_t<G>>::run, &job);
+        group.run_here(f);
         group.wait();
     }
 
 private:
-    /// A set of tasks a caller waits for; the first exception is rethrown by wait().
+    /// A queued task: run(ctx).
+    struct Task {
+        void (*run)(void*);
+        void* ctx;
+    };
+
+    /// A set of tasks a caller waits for; the first exception is rethrown by wait(). The
+    /// destructor waits too, so an exception between spawn and wait (a failed spawn) cannot
+    /// leave a queued task pointing at a dead group or job.
     class Group {
     public:
         explicit Group(ThreadPool& pool) : pool_(pool) {}
-        template <class F>
-        void spawn(F&& f) {
-            pending_.fetch_add(1);
-            pool_.push([this, f = std::forward<F>(f)]() mutable { run_here(f); pending_.fetch_sub(1); });
+        Group(const Group&) = delete;
+        Group& operator=(const Group&) = delete;
+        ~Group() { pool_.wait_until_zero(pending_); }
+
+        void spawn(void (*run)(void*), void* ctx) {
+            pending_.fetch_add(1, std::memory_order_relaxed);
+            try {
+                pool_.push(Task{run, ctx});
+            } catch (...) {
+                pending_.fetch_sub(1, std::memory_order_relaxed);
+                throw;
+            }
+        }
+        /// Marks one spawned task done (called by the task itself, last).
+        void finish_one() {
+            ThreadPool& pool = pool_;  // the group may be gone once the count reaches zero
+            if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) pool.notify_waiters();
         }
         template <class F>
-        void run_here(F&& f) {
+        void run_here(F& f) {
             try {
                 f();
             } catch (...) {
@@ -100,9 +129,7 @@ private:
             }
         }
         void wait() {
-            while (pending_.load() != 0) {
-                if (!pool_.run_one()) std::this_thread::yield();
-            }
+            pool_.wait_until_zero(pending_);
             if (error_) std::rethrow_exception(error_);
         }
 
@@ -113,41 +140,96 @@ private:
         std::exception_ptr error_;
     };
 
-    void push(std::function<void()> task) {
+    /// parallel_for's job: chunks of `step` taken from `next` until the range is done.
+    template <class F>
+    struct RangeJob {
+        F* f;
+        Group* group;
+        std::size_t begin, end, step;
+        std::atomic<std::size_t> next;
+
+        void drain() {
+            for (;;) {
+                std::size_t lo = next.fetch_add(step, std::memory_order_relaxed);
+                if (lo >= end) return;
+                std::size_t hi = std::min(end, lo + step);
+                auto chunk = [this, lo, hi] { (*f)(lo, hi); };
+                group->run_here(chunk);
+            }
+        }
+        static void run(void* self) {
+            auto* job = static_cast<RangeJob*>(self);
+            job->drain();
+            job->group->finish_one();
+        }
+    };
+
+    /// invoke's second callable as a task.
+    template <class G>
+    struct CallJob {
+        G* g;
+        Group* group;
+        static void run(void* self) {
+            auto* job = static_cast<CallJob*>(self);
+            job->group->run_here(*job->g);
+            job->group->finish_one();
+        }
+    };
+
+    void push(Task task) {
         {
             std::lock_guard lock(mutex_);
-            queue_.push_back(std::move(task));
+            queue_.push_back(task);
         }
         wake_.notify_one();
     }
-    /// Runs one queued task on the calling thread; false when the queue was empty.
-    bool run_one() {
-        std::function<void()> task;
-        {
-            std::lock_guard lock(mutex_);
-            if (queue_.empty()) return false;
-            task = std::move(queue_.back());
+    /// Wakes every thread blocked in the pool (a group finished: its waiter may be asleep).
+    void notify_waiters() {
+        { std::lock_guard lock(mutex_); }  // orders the notify after the waiter's predicate check
+        wake_.notify_all();
+    }
+    /// Runs queued tasks while `pending` is not zero, blocking when the queue is empty.
+    void wait_until_zero(const std::atomic<std::size_t>& pending) {
+        if (pending.load(std::memory_order_acquire) == 0) return;
+        std::unique_lock lock(mutex_);
+        while (pending.load(std::memory_order_acquire) != 0) {
+            if (queue_.empty()) {
+                wake_.wait(lock);
+                continue;
+            }
+            Task task = queue_.back();  // the newest: most likely this caller's own (nested) work
             queue_.pop_back();
+            lock.unlock();
+            task.run(task.ctx);
+            lock.lock();
         }
-        task();
-        return true;
+        // A push's notify_one may have woken this caller just as its count reached zero: pass
+        // the wake-up on so a queued task does not wait for a sleeping worker.
+        if (!queue_.empty()) wake_.notify_one();
     }
     void work() {
+        std::unique_lock lock(mutex_);
         for (;;) {
-            std::function<void()> task;
-            {
-                std::unique_lock lock(mutex_);
-                wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-                if (stopping_ && queue_.empty()) return;
-                task = std::move(queue_.front());
-                queue_.pop_front();
-            }
-            task();
+            wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+            if (queue_.empty()) return;  // stopping, nothing left
+            Task task = queue_.front();
+            queue_.pop_front();
+            lock.unlock();
+            task.run(task.ctx);
+            lock.lock();
         }
+    }
+    void stop() {
+        {
+            std::lock_guard lock(mutex_);
+            stopping_ = true;
+        }
+        wake_.notify_all();
+        for (auto& w : workers_) w.join();
     }
 
     std::vector<std::thread> workers_;
-    std::deque<std::function<void()>> queue_;
+    std::deque<Task> queue_;
     std::mutex mutex_;
     std::condition_variable wake_;
     bool stopping_ = false;
