@@ -21,6 +21,7 @@ packages=(
   libtbb-dev libembree-dev           # benchmark peers
   libnanovdb-dev                     # sylva-iso-bench's NanoVDB HDDA peer (headers only; optional at configure time)
   zlib1g-dev                         # gzip-encoded NRRD volumes (optional)
+  liblmdb-dev libzstd-dev liblz4-dev libxxhash-dev  # the out-of-core brick store (sylva::store, sylva-store)
 )
 
 if [[ ${1:-} == --list ]]; then
