@@ -80,6 +80,8 @@ public:
     /// XXH3-64 over the index words and every stored brick's (key, checksum) in key order: two
     /// stores with equal digests hold the same index and bricks (whatever their codec).
     [[nodiscard]] std::uint64_t content_digest() const;
+    /// Bytes of the stored brick values (headers and payloads), without decoding them.
+    [[nodiscard]] std::uint64_t stored_brick_bytes() const;
 
 private:
     Store() = default;
@@ -239,6 +241,18 @@ inline std::uint64_t Store::content_digest() const {
     std::uint64_t d = XXH3_64bits_digest(st);
     XXH3_freeState(st);
     return d;
+}
+
+inline std::uint64_t Store::stored_brick_bytes() const {
+    lmdb::Txn txn(*env_, MDB_RDONLY);
+    MDB_cursor* cur = nullptr;
+    lmdb::check(mdb_cursor_open(txn.get(), bricks_, &cur), where(), "mdb_cursor_open");
+    MDB_val k, v;
+    std::uint64_t bytes = 0;
+    for (int rc = mdb_cursor_get(cur, &k, &v, MDB_FIRST); rc == MDB_SUCCESS; rc = mdb_cursor_get(cur, &k, &v, MDB_NEXT))
+        bytes += v.mv_size;
+    mdb_cursor_close(cur);
+    return bytes;
 }
 
 }  // namespace sylva::store

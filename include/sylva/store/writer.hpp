@@ -116,7 +116,8 @@ inline StoreWriter StoreWriter::create(const std::filesystem::path& path, const 
     if (!exists && resume) throw Error(w.where() + ": --resume, but there is no such store");
     if (!exists && !std::filesystem::create_directory(path, ec))
         throw Error(w.where() + ": cannot create the directory" + (ec ? ": " + ec.message() : std::string()));
-    if (exists && !std::filesystem::is_regular_file(path / "data.mdb", ec))
+    if (exists && !std::filesystem::is_regular_file(path / "data.mdb", ec) &&
+        !std::filesystem::is_empty(path, ec) && !std::filesystem::exists(path / "lock.mdb", ec))
         throw Error(w.where() + ": not a brick store (no data.mdb)");
     w.env_ = std::make_unique<lmdb::Env>(w.where());
     MDB_env* env = w.env_->get();
@@ -128,9 +129,9 @@ inline StoreWriter StoreWriter::create(const std::filesystem::path& path, const 
     lmdb::check(mdb_dbi_open(txn.get(), "bricks", MDB_CREATE | MDB_INTEGERKEY, &w.bricks_), w.where(),
                 "mdb_dbi_open bricks");
     MDB_val v;
-    if (resume) {
-        if (!lmdb::get(txn, w.meta_, lmdb::val("magic"), v, w.where()) || lmdb::text(v) != kMagic)
-            throw Error(w.where() + ": not a sylva brick store");
+    // A build killed before its first commit left no meta: resuming it starts it afresh.
+    if (resume && lmdb::get(txn, w.meta_, lmdb::val("magic"), v, w.where())) {
+        if (lmdb::text(v) != kMagic) throw Error(w.where() + ": not a sylva brick store");
         std::uint32_t format = 0;
         if (lmdb::get(txn, w.meta_, lmdb::val("format"), v, w.where()) && v.mv_size == 4) std::memcpy(&format, v.mv_data, 4);
         if (format != kFormatVersion)
