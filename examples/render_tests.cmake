@@ -312,27 +312,27 @@ sylva_render_test(octree_lod_zero RC 2 ERR "--lod-pixels: '0' is not a number in
   ARGS --index octree --lod-pixels 0 -o ${_out}/x.png)
 sylva_render_test(octree_cut_nodes_zero RC 2 ERR "--cut-nodes: '0' is not a number in"
   ARGS --index octree --cut-nodes 0 -o ${_out}/x.png)
-# The element octree over particles (--particles or --count with --index octree): host only.
+# The element octree over particles (--particles or --count with --index octree), both backends.
 set(_octe_keys "octree_nodes;octree_levels;references;references_per_element;index_bytes;record_bytes")
-sylva_render_test(octree_particles_halo_cpu
-  NEED ${_data}/dark_matter_halo_32314x3_float32.raw
-  ARGS --particles ${_data}/dark_matter_halo_32314x3_float32.raw --index octree --size 240x180 --quiet
-       -o ${_out}/halo_octree.png --stats-json ${_out}/halo_octree.json
-  FILES ${_out}/halo_octree.png JSON ${_out}/halo_octree.json EXTRA_KEYS ${_octe_keys}
-  JSON_MIN visible_pixels=1000 references=32314 index_bytes=1 record_bytes=1034048
-  JSON_EQUAL index=octree elements=32314 errors=0)
-sylva_render_test(octree_particles_galaxy_cpu
-  ARGS --count 20000 --index octree --size 160x120 --quiet -o ${_out}/galaxy_octree.png
-       --heatmap ${_out}/galaxy_octree_heat.png --stats-json ${_out}/galaxy_octree.json
-  FILES ${_out}/galaxy_octree.png ${_out}/galaxy_octree_heat.png JSON ${_out}/galaxy_octree.json
-  EXTRA_KEYS ${_octe_keys} JSON_MIN visible_pixels=1000 references=20000 record_bytes=640000
-  JSON_EQUAL index=octree elements=20000 errors=0)
-sylva_render_test(octree_particles_vulkan RC 2
-  ERR "the element octree's particle renderer runs on the host only; use --backend cpu"
-  ARGS --index octree --particles ${_out}/nope.raw --backend vulkan -o ${_out}/x.png)
-sylva_render_test(octree_galaxy_vulkan RC 2
-  ERR "the element octree's particle renderer runs on the host only; use --backend cpu"
-  ARGS --index octree --count 1000 --backend vulkan -o ${_out}/x.png)
+foreach(backend cpu vulkan)
+  if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+    continue()
+  endif()
+  sylva_render_test(octree_particles_halo_${backend}
+    NEED ${_data}/dark_matter_halo_32314x3_float32.raw
+    ARGS --particles ${_data}/dark_matter_halo_32314x3_float32.raw --index octree --backend ${backend} --size 240x180
+         --quiet -o ${_out}/halo_octree_${backend}.png --stats-json ${_out}/halo_octree_${backend}.json
+    FILES ${_out}/halo_octree_${backend}.png JSON ${_out}/halo_octree_${backend}.json EXTRA_KEYS ${_octe_keys}
+    JSON_MIN visible_pixels=1000 references=32314 index_bytes=1 record_bytes=1034048
+    JSON_EQUAL index=octree elements=32314 errors=0)
+  sylva_render_test(octree_particles_galaxy_${backend}
+    ARGS --count 20000 --index octree --backend ${backend} --size 160x120 --quiet -o ${_out}/galaxy_octree_${backend}.png
+         --heatmap ${_out}/galaxy_octree_heat_${backend}.png --stats-json ${_out}/galaxy_octree_${backend}.json
+    FILES ${_out}/galaxy_octree_${backend}.png ${_out}/galaxy_octree_heat_${backend}.png
+    JSON ${_out}/galaxy_octree_${backend}.json
+    EXTRA_KEYS ${_octe_keys} JSON_MIN visible_pixels=1000 references=20000 record_bytes=640000
+    JSON_EQUAL index=octree elements=20000 errors=0)
+endforeach()
 sylva_render_test(octree_particles_brick RC 2 ERR "--brick applies to the bricked octree of volumes, not to particles"
   ARGS --index octree --particles ${_out}/nope.raw --brick 16 -o ${_out}/x.png)
 sylva_render_test(octree_several_isos RC 2 ERR "several --iso values need --index implicit-kd or dda"

@@ -22,8 +22,7 @@ const char* usage() {
            "                    [--tf-sequence TF1,TF2,...]\n"
            "isosurfaces:        [--index implicit-kd|dda] [--iso V1[,V2,V3,V4]] [--ikd-bricks N]\n"
            "octree (volumes):   [--index octree] [--brick 16|32] [--lod-pixels P] [--cut-nodes N] [--mode dvr|iso]\n"
-           "octree (particles): --particles FILE --index octree, or --count N --index octree (the galaxy);\n"
-           "                    --backend cpu only\n"
+           "octree (particles): --particles FILE --index octree, or --count N --index octree (the galaxy)\n"
            "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
            "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
@@ -36,7 +35,7 @@ const char* usage() {
            "with it a cut refined while a node's voxels project larger than P pixels, within --cut-nodes\n"
            "nodes.\n"
            "With --particles (or --count and no input: the galaxy) --index octree renders the particles\n"
-           "through the element octree on the host, in exact depth order (no Vulkan kernel yet).\n"
+           "through the element octree, in exact depth order, on either backend.\n"
            "With no input it renders a procedural galaxy of --count particles (default 1,000,000);\n"
            "with --mode, or --index octree without --count, and no input, a procedural volume.\n"
            "Volume files: NAME_XxYxZ_TYPE.raw, .nrrd, .nhdr.\n"
@@ -165,8 +164,6 @@ Options parse(int argc, char** argv) {
     if (o.ikd_index() && !o.volume_input())
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
     if (o.particle_octree()) {
-        if (o.backend == "vulkan")
-            throw std::invalid_argument("the element octree's particle renderer runs on the host only; use --backend cpu");
         for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
             for (int i = 1; i < argc; ++i)
                 if (std::string(argv[i]) == opt)

@@ -1,8 +1,8 @@
 // sylva-render, particles with --index octree: the element octree (sylva/octree/elements.hpp)
 // built over the particles' spheres, encoded (sylva/octree/elements_encode.hpp) and rendered on
-// the host in exact depth order (sylva/render/octree_particles.hpp). There is no Vulkan kernel:
-// options.cpp refuses --backend vulkan for it. Header only: main.cpp, the one includer,
-// dispatches here.
+// the host (sylva/render/octree_particles.hpp) or through Vulkan (sylva/vulkan/octree_particles.hpp,
+// the same shared integrator as a compute shader), in exact depth order. Header only: main.cpp,
+// the one includer, dispatches here.
 #ifndef SYLVA_RENDER_PARTICLE_OCTREE_SCENE_HPP
 #define SYLVA_RENDER_PARTICLE_OCTREE_SCENE_HPP
 
@@ -22,19 +22,40 @@
 #include <sylva/render/image.hpp>
 #include <sylva/render/octree_particles.hpp>
 #include <sylva/render/particles.hpp>
+#ifdef SYLVA_RENDER_VULKAN
+#include <sylva/vulkan/octree_particles.hpp>
+#endif
 
 #include "options.hpp"
 #include "stats.hpp"
 
 namespace sylva_render {
 
+/// Renders the encoded element octree on the chosen backend; names the device in `device`.
+inline sylva::Frame render_particle_octree(const Options& o, std::span<const std::uint32_t> words,
+                                           std::span<const std::uint32_t> records, const sylva::CameraFrame& cam,
+                                           sylva::ThreadPool& pool, std::string& device) {
+    using namespace sylva;
+    ParticleRenderConfig rc{o.alpha_stop};
+    if (o.backend == "cpu") {
+        device = "host, " + std::to_string(pool.concurrency()) + " threads";
+        return render_particles_octree_cpu(words, records, cam, o.width, o.height, pool, rc);
+    }
+#ifdef SYLVA_RENDER_VULKAN
+    vk::Context ctx = vk::Context::create();
+    device = ctx.describe();
+    vk::DeviceElementOctree oct(ctx, words, records);
+    return vk::render_particles_octree_vulkan(ctx, oct, cam, o.width, o.height, rc);
+#else
+    throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
+#endif
+}
+
 /// Builds, encodes and renders `spheres` through the element octree; fills `s` (input already
 /// set) and writes the image, heat map and statistics. Returns the exit status.
 inline int run_particle_octree(const Options& o, std::span<const sylva::Sphere> spheres, sylva::ThreadPool& pool,
                                Stats& s) {
     using namespace sylva;
-    if (o.backend != "cpu")  // options.cpp refuses it; kept here so that no caller can reach Vulkan
-        throw Error("the element octree's particle renderer runs on the host only; use --backend cpu");
     octree::ElementTree et = octree::build_elements(spheres, octree::ElementConfig{}, pool);
     auto t0 = std::chrono::steady_clock::now();
     std::vector<std::uint32_t> words = octree::encode_elements(et);
@@ -47,8 +68,7 @@ inline int run_particle_octree(const Options& o, std::span<const sylva::Sphere> 
     for (const Sphere& p : spheres) box.extend(bounds_of(p));
     vec3 from = o.view ? vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : vec3(0.4f, 0.7f, 1.0f);
     CameraFrame cam = Camera::framing(box, from).frame(o.width, o.height);
-    s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
-    Frame f = render_particles_octree_cpu(words, records, cam, o.width, o.height, pool, ParticleRenderConfig{o.alpha_stop});
+    Frame f = render_particle_octree(o, words, records, cam, pool, s.device);
 
     s.index = "octree";
     s.elements = et.element_count;

@@ -6,17 +6,18 @@
 // order the octree was built over (element e is record e). A particle contributes at its
 // closest approach t_c; with straddling references it is listed in every leaf it overlaps, so
 // a leaf composites only the particles whose t_c it claims (sylva_octe_claims: t_c in
-// [t0, t1)), nearest first (sorted by (t_c, element) in every leaf, of any size). The leaves come
-// front to back and their intervals tile the ray, so the ray receives exactly the particles
-// that pass within their radius at t_c in [t_min, t_max], in (t_c, element) order: the order of
-// a brute-force sort. The ray stops at the end of a leaf once its opacity reaches alpha_stop.
+// [t0, t1)), nearest first (sorted by (t_c, element) in every leaf, of any size, in windows of
+// SYLVA_OCTE_SORT). The leaves come front to back and their intervals tile the ray, so the ray
+// receives exactly the particles that pass within their radius at t_c in [t_min, t_max], in
+// (t_c, element) order: the order of a brute-force sort. The ray stops at the end of a leaf once its opacity reaches alpha_stop.
 #ifndef SYLVA_SHARED_OCTREE_PARTICLES_H
 #define SYLVA_SHARED_OCTREE_PARTICLES_H
 
 #include "sylva/shared/octree_elem_iter.h"
 #include "sylva/shared/particles.h"
 
-/// Claimed particles a leaf sorts in a local list; more fall back to selection.
+/// Claimed particles a leaf sorts in a local list per pass over its references; more take
+/// further passes.
 #define SYLVA_OCTE_SORT 32u
 
 SYLVA_BEGIN_NAMESPACE
@@ -28,19 +29,30 @@ SYLVA_FN vec2 sylva_octe_approach(SYLVA_BUF(elems), uint e, vec3 o, vec3 d) {
     return sylva_particle_approach(c, r, o, d);
 }
 
+/// True when (t, e) comes before (u, f) in the compositing order: by t_c, then by element.
+SYLVA_FN bool sylva_octe_before(float t, uint e, float u, uint f) { return t < u || (t == u && e < f); }
+
 /// Composites the particles of one leaf (references [first, first + count) of `words`) whose
-/// t_c the leaf claims, in (t_c, element) order, by selection: each pass takes the least
-/// (t_c, element) after the last one (any number of claimed particles, O(claimed x count)).
+/// t_c the leaf claims, in (t_c, element) order, in windows of SYLVA_OCTE_SORT: each pass over
+/// the references keeps the SYLVA_OCTE_SORT least (t_c, element) after the last one composited
+/// in a local list sorted by insertion, then composites them; a leaf that claims more needs
+/// ceil(claimed / SYLVA_OCTE_SORT) passes (most need one). Passes, not a selection of one
+/// particle per pass over the references: lavapipe ends every loop of a shader invocation once
+/// 65535 loop iterations have run in it in all (its loop limiter counts per invocation, not
+/// per loop), and one pass per particle over a leaf of hundreds of references exceeds that.
 /// False (status ERROR) on a reference past `records` or past the element count.
-SYLVA_FN bool sylva_octe_particle_leaf_select(SYLVA_INOUT(SylvaComposite) acc, SYLVA_INOUT(SylvaOctElemIter) it,
-                                              SYLVA_BUF(words), SYLVA_BUF(elems), uint records, uint first,
-                                              uint count, vec3 o, vec3 d, float t0, float t1) {
+SYLVA_FN bool sylva_octe_particle_leaf(SYLVA_INOUT(SylvaComposite) acc, SYLVA_INOUT(SylvaOctElemIter) it,
+                                       SYLVA_BUF(words), SYLVA_BUF(elems), uint records, uint first, uint count,
+                                       vec3 o, vec3 d, float t0, float t1) {
+    float cand_t[SYLVA_OCTE_SORT];
+    float cand_q[SYLVA_OCTE_SORT];
+    uint cand_e[SYLVA_OCTE_SORT];
     float last_t = -sylva_inf();
     uint last_e = SYLVA_OCT_NONE;
-    for (uint n = 0u; n < count; n++) {
-        uint best_e = SYLVA_OCT_NONE;
-        float best_t = sylva_inf();
-        float best_q = 2.0f;
+    bool more = true;
+    while (more) {
+        more = false;
+        uint m = 0u;
         for (uint k = 0u; k < count; k++) {
             uint e = sylva_octe_element(it, SYLVA_PASS_BUF(words), first + k);
             if (e == SYLVA_OCT_NONE || e >= records) {
@@ -49,66 +61,34 @@ SYLVA_FN bool sylva_octe_particle_leaf_select(SYLVA_INOUT(SylvaComposite) acc, S
             }
             vec2 a = sylva_octe_approach(SYLVA_PASS_BUF(elems), e, o, d);
             if (!(a.y <= 1.0f) || !sylva_octe_claims(it, a.x, t0, t1)) continue;
-            bool after_last = a.x > last_t || (a.x == last_t && (last_e == SYLVA_OCT_NONE || e > last_e));
-            bool better = best_e == SYLVA_OCT_NONE || a.x < best_t || (a.x == best_t && e < best_e);
-            if (after_last && better) {
-                best_e = e;
-                best_t = a.x;
-                best_q = a.y;
+            if (last_e != SYLVA_OCT_NONE && !sylva_octe_before(last_t, last_e, a.x, e)) continue;  // composited
+            if (m == SYLVA_OCTE_SORT) {
+                more = true;  // the window is full: this one or the last in it waits for the next pass
+                if (!sylva_octe_before(a.x, e, cand_t[m - 1u], cand_e[m - 1u])) continue;
+                m = m - 1u;
             }
+            uint j = m;
+            while (j > 0u && sylva_octe_before(a.x, e, cand_t[j - 1u], cand_e[j - 1u])) {
+                cand_t[j] = cand_t[j - 1u];
+                cand_q[j] = cand_q[j - 1u];
+                cand_e[j] = cand_e[j - 1u];
+                j = j - 1u;
+            }
+            cand_t[j] = a.x;
+            cand_q[j] = a.y;
+            cand_e[j] = e;
+            m = m + 1u;
         }
-        if (best_e == SYLVA_OCT_NONE) break;
-        float kappa = uintBitsToFloat(SYLVA_LOAD(elems, best_e * SYLVA_PARTICLE_WORDS + 4u));
-        uint rgba8 = SYLVA_LOAD(elems, best_e * SYLVA_PARTICLE_WORDS + 5u);
-        sylva_composite_add(acc, sylva_unpack_rgba8(rgba8), sylva_radial_weight(best_q, kappa));
-        last_t = best_t;
-        last_e = best_e;
-    }
-    return true;
-}
-
-/// Composites the particles of one leaf whose t_c the leaf claims, in (t_c, element) order:
-/// one pass gathers them into a local list sorted by insertion; a leaf that claims more than
-/// SYLVA_OCTE_SORT of them falls back to sylva_octe_particle_leaf_select (the same order).
-/// False (status ERROR) on a reference past `records` or past the element count.
-SYLVA_FN bool sylva_octe_particle_leaf(SYLVA_INOUT(SylvaComposite) acc, SYLVA_INOUT(SylvaOctElemIter) it,
-                                       SYLVA_BUF(words), SYLVA_BUF(elems), uint records, uint first, uint count,
-                                       vec3 o, vec3 d, float t0, float t1) {
-    float cand_t[SYLVA_OCTE_SORT];
-    float cand_q[SYLVA_OCTE_SORT];
-    uint cand_e[SYLVA_OCTE_SORT];
-    uint m = 0u;
-    for (uint k = 0u; k < count; k++) {
-        uint e = sylva_octe_element(it, SYLVA_PASS_BUF(words), first + k);
-        if (e == SYLVA_OCT_NONE || e >= records) {
-            it.walk.status = SYLVA_ITER_ERROR;
-            return false;
+        for (uint i = 0u; i < m; i++) {
+            uint e = cand_e[i];
+            float kappa = uintBitsToFloat(SYLVA_LOAD(elems, e * SYLVA_PARTICLE_WORDS + 4u));
+            uint rgba8 = SYLVA_LOAD(elems, e * SYLVA_PARTICLE_WORDS + 5u);
+            sylva_composite_add(acc, sylva_unpack_rgba8(rgba8), sylva_radial_weight(cand_q[i], kappa));
         }
-        vec2 a = sylva_octe_approach(SYLVA_PASS_BUF(elems), e, o, d);
-        if (!(a.y <= 1.0f) || !sylva_octe_claims(it, a.x, t0, t1)) continue;
-        if (m == SYLVA_OCTE_SORT) {
-            return sylva_octe_particle_leaf_select(acc, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), records,
-                                                   first, count, o, d, t0, t1);
+        if (m > 0u) {
+            last_t = cand_t[m - 1u];
+            last_e = cand_e[m - 1u];
         }
-        // Insert (a.x, e) after every (t, e') before it; references ascend, so among equal t_c
-        // the later reference goes last.
-        uint j = m;
-        while (j > 0u && cand_t[j - 1u] > a.x) {
-            cand_t[j] = cand_t[j - 1u];
-            cand_q[j] = cand_q[j - 1u];
-            cand_e[j] = cand_e[j - 1u];
-            j = j - 1u;
-        }
-        cand_t[j] = a.x;
-        cand_q[j] = a.y;
-        cand_e[j] = e;
-        m = m + 1u;
-    }
-    for (uint i = 0u; i < m; i++) {
-        uint e = cand_e[i];
-        float kappa = uintBitsToFloat(SYLVA_LOAD(elems, e * SYLVA_PARTICLE_WORDS + 4u));
-        uint rgba8 = SYLVA_LOAD(elems, e * SYLVA_PARTICLE_WORDS + 5u);
-        sylva_composite_add(acc, sylva_unpack_rgba8(rgba8), sylva_radial_weight(cand_q[i], kappa));
     }
     return true;
 }
