@@ -89,6 +89,25 @@ inline void unshuffle4(const std::byte* in, std::span<std::uint32_t> words) {
         for (std::size_t k = 0; k < 4; ++k) out[4 * i + k] = in[k * n + i];
 }
 
+/// One zstd compression and one decompression context per thread, kept: creating them per
+/// brick allocates (and page-faults) their workspaces every time.
+struct ZstdContexts {
+    ZSTD_CCtx* c = ZSTD_createCCtx();
+    ZSTD_DCtx* d = ZSTD_createDCtx();
+    ZstdContexts() = default;
+    ZstdContexts(const ZstdContexts&) = delete;
+    ZstdContexts& operator=(const ZstdContexts&) = delete;
+    ~ZstdContexts() {
+        ZSTD_freeCCtx(c);
+        ZSTD_freeDCtx(d);
+    }
+};
+inline ZstdContexts& zstd_contexts() {
+    thread_local ZstdContexts ctx;
+    if (!ctx.c || !ctx.d) throw Error("store: cannot create a zstd context");
+    return ctx;
+}
+
 }  // namespace detail
 
 /// Encodes one brick (header + payload) into `out` (resized). `level` is zstd's level (1-19);
@@ -96,7 +115,7 @@ inline void unshuffle4(const std::byte* in, std::span<std::uint32_t> words) {
 inline void encode_brick(std::span<const std::uint32_t> words, Codec codec, int level, std::vector<std::byte>& out) {
     const std::size_t raw = words.size_bytes();
     if (raw > 0x7FFFFFFFu) throw Error("store: a brick of " + std::to_string(raw) + " bytes is too large");
-    std::vector<std::byte> shuffled;
+    thread_local std::vector<std::byte> shuffled;  // reused: no page faults per brick
     const void* src = words.data();
     if (codec != Codec::none) {
         shuffled.resize(raw);
@@ -110,7 +129,7 @@ inline void encode_brick(std::span<const std::uint32_t> words, Codec codec, int 
     std::byte* payload = out.data() + kBrickHeaderBytes;
     std::size_t size = raw;
     if (codec == Codec::zstd) {
-        size = ZSTD_compress(payload, bound, src, raw, level);
+        size = ZSTD_compressCCtx(detail::zstd_contexts().c, payload, bound, src, raw, level);
         if (ZSTD_isError(size)) throw Error(std::string("store: zstd compression failed: ") + ZSTD_getErrorName(size));
     } else if (codec == Codec::lz4) {
         int n = LZ4_compress_default(static_cast<const char*>(src), reinterpret_cast<char*>(payload), int(raw), int(bound));
@@ -154,7 +173,7 @@ inline DecodeStatus decode_brick(std::span<const std::byte> stored, std::span<st
         dst = scratch.data();
     }
     if (codec == 2) {
-        std::size_t n = ZSTD_decompress(dst, raw, payload, size);
+        std::size_t n = ZSTD_decompressDCtx(detail::zstd_contexts().d, dst, raw, payload, size);
         if (ZSTD_isError(n) || n != raw) return DecodeStatus::bad_payload;
     } else if (codec == 1) {
         int n = LZ4_decompress_safe(reinterpret_cast<const char*>(payload), reinterpret_cast<char*>(dst), int(size),

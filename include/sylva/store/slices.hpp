@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "sylva/core/error.hpp"
+#include "sylva/core/executor.hpp"
 #include "sylva/volume/grid.hpp"
 #include "sylva/volume/procedural.hpp"
 #include "sylva/volume/read_raw.hpp"
@@ -41,6 +42,11 @@ public:
     [[nodiscard]] virtual volume::Dims dims() const = 0;
     [[nodiscard]] virtual vec3 spacing() const = 0;
     virtual void read(std::uint32_t z, std::span<float> out) = 0;
+    /// read() with rows computed on `pool` (sources that compute their voxels override it).
+    virtual void read(std::uint32_t z, std::span<float> out, ThreadPool& pool) {
+        (void)pool;
+        read(z, out);
+    }
     /// Type of the voxels as stored at the source ("uint8", "uint16", "float32").
     [[nodiscard]] virtual std::string voxel_type() const { return "float32"; }
     /// Raw values mapped to density 0 and 1, and where that range came from.
@@ -88,17 +94,22 @@ public:
     }
     [[nodiscard]] volume::Dims dims() const override { return dims_; }
     [[nodiscard]] vec3 spacing() const override { return cfg_.spacing; }
-    void read(std::uint32_t z, std::span<float> out) override {
+    void read(std::uint32_t z, std::span<float> out) override { rows(z, 0, dims_.y, out); }
+    void read(std::uint32_t z, std::span<float> out, ThreadPool& pool) override {
+        pool.parallel_for(0, dims_.y, 4, [&](std::size_t y0, std::size_t y1) { rows(z, y0, y1, out); });
+    }
+
+private:
+    void rows(std::uint32_t z, std::size_t y0, std::size_t y1, std::span<float> out) const {
         const vec3 extent = vec3(dims_) * cfg_.spacing;  // as in volume::marschner_lobb
-        std::size_t i = 0;
-        for (std::uint32_t y = 0; y < dims_.y; ++y)
+        std::size_t i = y0 * dims_.x;
+        for (std::uint32_t y = std::uint32_t(y0); y < y1; ++y)
             for (std::uint32_t x = 0; x < dims_.x; ++x) {
                 vec3 c = (vec3(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)) + 0.5f) * cfg_.spacing;
                 out[i++] = std::clamp(volume::marschner_lobb_at(2.0f * c / extent - 1.0f, cfg_.f_m, cfg_.alpha), 0.0f, 1.0f);
             }
     }
 
-private:
     volume::Dims dims_;
     volume::MarschnerLobbConfig cfg_;
 };
@@ -134,11 +145,14 @@ public:
     [[nodiscard]] volume::Dims dims() const override { return info_.dims; }
     [[nodiscard]] vec3 spacing() const override { return info_.spacing; }
     void read(std::uint32_t z, std::span<float> out) override {
-        volume::Volume slab = slab_volume();
-        read_bytes(std::uint64_t(z) * slab.bytes.size(), slab.bytes);
-        check_finite(slab, std::uint64_t(z) * slab.voxels());
-        volume::DensityGrid g = volume::normalize(slab);
-        std::copy(g.values.begin(), g.values.end(), out.begin());
+        if (slab_.bytes.empty()) slab_ = slab_volume();
+        read_bytes(std::uint64_t(z) * slab_.bytes.size(), slab_.bytes);
+        check_finite(slab_, std::uint64_t(z) * slab_.voxels());
+        // volume::normalize's arithmetic, without its per-call allocation:
+        // clamp((x - lo) * inv, 0, 1) with inv = 1 / (hi - lo), or 0 for an empty span.
+        const float lo = slab_.range_lo, span = slab_.range_hi - slab_.range_lo;
+        const float inv = span > 0.0f ? 1.0f / span : 0.0f;
+        for (std::size_t i = 0; i < out.size(); ++i) out[i] = glm::clamp((slab_.value(i) - lo) * inv, 0.0f, 1.0f);
     }
     [[nodiscard]] std::string voxel_type() const override { return volume::scalar_name(info_.type); }
     [[nodiscard]] float range_lo() const override { return lo_; }
@@ -221,6 +235,7 @@ private:
     std::filesystem::path path_;
     volume::RawInfo info_;
     std::string what_;
+    volume::Volume slab_;  ///< the slice being read (bytes reused)
     int fd_ = -1;
     float lo_ = 0.0f, hi_ = 1.0f;
     volume::RangeSource source_ = volume::RangeSource::Data;
@@ -246,11 +261,9 @@ public:
     }
     [[nodiscard]] volume::Dims dims() const override { return dims_; }
     [[nodiscard]] vec3 spacing() const override { return spacing_; }
-    void read(std::uint32_t z, std::span<float> out) override {
-        std::size_t i = 0;
-        for (std::uint32_t y = 0; y < dims_.y; ++y)
-            for (std::uint32_t x = 0; x < dims_.x; ++x)
-                out[i++] = volume::detail::resample::trilinear(grid_, axes_[0][x], axes_[1][y], axes_[2][z]);
+    void read(std::uint32_t z, std::span<float> out) override { rows(z, 0, dims_.y, out); }
+    void read(std::uint32_t z, std::span<float> out, ThreadPool& pool) override {
+        pool.parallel_for(0, dims_.y, 4, [&](std::size_t y0, std::size_t y1) { rows(z, y0, y1, out); });
     }
     [[nodiscard]] std::string voxel_type() const override { return inner_->voxel_type(); }
     [[nodiscard]] float range_lo() const override { return inner_->range_lo(); }
@@ -259,6 +272,13 @@ public:
     [[nodiscard]] std::uint64_t memory_bytes() const override { return grid_.values.size() * 4u + inner_->memory_bytes(); }
 
 private:
+    void rows(std::uint32_t z, std::size_t y0, std::size_t y1, std::span<float> out) const {
+        std::size_t i = y0 * dims_.x;
+        for (std::uint32_t y = std::uint32_t(y0); y < y1; ++y)
+            for (std::uint32_t x = 0; x < dims_.x; ++x)
+                out[i++] = volume::detail::resample::trilinear(grid_, axes_[0][x], axes_[1][y], axes_[2][z]);
+    }
+
     std::unique_ptr<SliceSource> inner_;
     volume::DensityGrid grid_;
     volume::Dims dims_{0};

@@ -145,7 +145,7 @@ public:
         progress_.slices_total = t_.dims.z;
         std::vector<float> slice(std::size_t(t_.dims.x) * t_.dims.y);
         for (std::uint32_t z = 0; z < t_.dims.z; ++z) {
-            src_.read(z, slice);
+            src_.read(z, slice, pool_);
             progress_.slices_read = z + 1u;
             progress_.source_bytes += src_.slice_source_bytes();
             push(0, z, slice);
@@ -167,6 +167,7 @@ private:
         volume::Dims dims{0};
         std::vector<std::vector<float>> slots;  ///< ring of slices, slot z % cap
         std::vector<std::uint32_t> slot_z;       ///< which slice each slot holds
+        std::vector<float> incoming;             ///< the next slice, being downsampled into
         std::uint32_t next_row = 0;              ///< first row of nodes not yet emitted
         std::vector<std::uint32_t> order;        ///< the level's nodes by (z, y, x)
         std::vector<std::size_t> row_start;      ///< order[row_start[cz] .. row_start[cz + 1])
@@ -206,7 +207,8 @@ private:
         while (L.next_row < rows && std::min(L.next_row * b + b + t_.border - 1u, L.dims.z - 1u) <= z)
             emit_row(s, L.next_row++);
         if (s + 1u < t_.levels && ((z & 1u) == 1u || z + 1u == L.dims.z)) {
-            std::vector<float> coarse(std::size_t(levels_[s + 1u].dims.x) * levels_[s + 1u].dims.y);
+            std::vector<float>& coarse = levels_[s + 1u].incoming;
+            coarse.resize(std::size_t(levels_[s + 1u].dims.x) * levels_[s + 1u].dims.y);
             downsample(s, z / 2u, coarse);
             push(s + 1u, z / 2u, coarse);
         }
@@ -234,37 +236,40 @@ private:
         });
     }
 
-    /// Sample (x, y, z) of level s, each coordinate already clamped.
-    float at(std::uint32_t s, std::uint32_t x, std::uint32_t y, std::uint32_t z) const {
-        return slice(s, z)[x + std::size_t(levels_[s].dims.x) * y];
-    }
-
-    /// octree::detail::fill_brick over the window.
+    /// octree::detail::fill_brick over the window (the same clamped samples, read row by row).
     void fill_brick(std::uint32_t s, const octree::Node& node, std::uint32_t* out) const {
         const std::uint32_t side = t_.brick_side();
         const glm::ivec3 lo = glm::ivec3(node.coord * t_.brick_size) - int(t_.border);
         const glm::ivec3 top = glm::ivec3(levels_[s].dims) - 1;
-        for (std::uint32_t z = 0; z < side; ++z)
-            for (std::uint32_t y = 0; y < side; ++y)
-                for (std::uint32_t x = 0; x < side; ++x) {
-                    glm::ivec3 v = glm::clamp(lo + glm::ivec3(x, y, z), glm::ivec3(0), top);
-                    *out++ = std::bit_cast<std::uint32_t>(at(s, std::uint32_t(v.x), std::uint32_t(v.y), std::uint32_t(v.z)));
-                }
+        const std::size_t row = levels_[s].dims.x;
+        std::uint32_t xs[64 + 4];
+        for (std::uint32_t x = 0; x < side; ++x) xs[x] = std::uint32_t(std::clamp(lo.x + int(x), 0, top.x));
+        for (std::uint32_t z = 0; z < side; ++z) {
+            const float* plane = slice(s, std::uint32_t(std::clamp(lo.z + int(z), 0, top.z)));
+            for (std::uint32_t y = 0; y < side; ++y) {
+                const float* line = plane + row * std::uint32_t(std::clamp(lo.y + int(y), 0, top.y));
+                for (std::uint32_t x = 0; x < side; ++x) *out++ = std::bit_cast<std::uint32_t>(line[xs[x]]);
+            }
+        }
     }
 
-    /// octree::detail::own_range over the window.
+    /// octree::detail::own_range over the window (same voxels, same order).
     std::pair<float, float> own_range(std::uint32_t s, const octree::Node& node) const {
         const volume::Dims d = levels_[s].dims;
         glm::u32vec3 lo = glm::max(glm::ivec3(node.coord * t_.brick_size) - 1, glm::ivec3(0));
         glm::u32vec3 hi = glm::min((node.coord + 1u) * t_.brick_size, d - 1u);
         float a = std::numeric_limits<float>::infinity(), b = -a;
-        for (std::uint32_t z = lo.z; z <= hi.z; ++z)
-            for (std::uint32_t y = lo.y; y <= hi.y; ++y)
+        for (std::uint32_t z = lo.z; z <= hi.z; ++z) {
+            const float* plane = slice(s, z);
+            for (std::uint32_t y = lo.y; y <= hi.y; ++y) {
+                const float* line = plane + std::size_t(d.x) * y;
                 for (std::uint32_t x = lo.x; x <= hi.x; ++x) {
-                    float v = at(s, x, y, z);
+                    float v = line[x];
                     a = std::min(a, v);
                     b = std::max(b, v);
                 }
+            }
+        }
         return {a, b};
     }
 
