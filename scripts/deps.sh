@@ -21,6 +21,7 @@ packages=(
   libtbb-dev libembree-dev           # benchmark peers
   libnanovdb-dev                     # sylva-iso-bench's NanoVDB HDDA peer (headers only; optional at configure time)
   zlib1g-dev                         # gzip-encoded NRRD volumes (optional)
+  clang libclang-rt-dev libfuzzer-14-dev  # fuzz targets (scripts/fuzz.sh): clang, its sanitizer runtimes, libFuzzer
   liblmdb-dev libzstd-dev liblz4-dev libxxhash-dev  # the out-of-core brick store (sylva::store, sylva-store)
 )
 

@@ -1,0 +1,4 @@
+// libFuzzer entry point of fuzz_raw (harness: fuzz/harness/readers.hpp).
+#include "harness/readers.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) { return sylva_fuzz::fuzz_raw(data, size); }
