@@ -8,8 +8,11 @@
 // opacity prefix counts (entries + 1 words); 7 the parameter block (SYLVA_DVR_PARAM_WORDS words,
 // sylva/shared/dvr_common.h); 8 output, 5 words per pixel: premultiplied R, G, B, alpha (float
 // bits) and the number of lattice samples taken (0xFFFFFFFF where the index was found corrupt).
+// 9 visibility feedback, one word per node: set to 1 for every cut leaf a ray reached before it
+// terminated (sylva/shared/octree_dvr.h; written only when the push constant `feedback` is 1,
+// else a 4-byte dummy is bound and nothing is written).
 // Push constants: max level (the cut), the brick buffer's word count (its parts are split),
-// mode (0 DVR, 1 iso; the iso value is the parameter block's).
+// mode (0 DVR, 1 iso; the iso value is the parameter block's), feedback (1: write binding 9).
 // Specialization constants: 0 split shift of the bricks, 1 parts holding data (1: fast loads).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -23,11 +26,18 @@ layout(std430, binding = 5) readonly buffer Tf { uint tf_words[]; };
 layout(std430, binding = 6) readonly buffer TfSum { uint tfsum_words[]; };
 layout(std430, binding = 7) readonly buffer Params { uint param_words[]; };
 layout(std430, binding = 8) writeonly buffer Pixels { uint pixels[]; };
+layout(std430, binding = 9) buffer Seen { uint seen_words[]; };
 layout(push_constant) uniform Push {
     uint max_level;
     uint brick_buffer_words;
     uint mode;
+    uint feedback;
 } pc;
+
+#define SYLVA_OCT_SEEN_STORE
+void sylva_oct_store_seen(uint node) {
+    if (pc.feedback != 0u && node < uint(seen_words.length())) seen_words[node] = 1u;
+}
 
 uint sylva_load_words(uint i) { return i < uint(index_words.length()) ? index_words[i] : 0u; }
 uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
@@ -55,9 +65,10 @@ void main() {
     uint status;
     vec4 c;
     if (pc.mode == 1u) {
-        c = sylva_oct_iso_ray(0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), steps, visits, status);
+        c = sylva_oct_iso_ray_seen(0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), 0u, steps, visits, status);
     } else {
-        c = sylva_oct_dvr_ray(0u, 0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), steps, visits, status);
+        c = sylva_oct_dvr_ray_seen(0u, 0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), 0u, steps, visits,
+                                   status);
     }
     uint at = (px.y * p.width + px.x) * 5u;
     pixels[at] = floatBitsToUint(c.x);

@@ -38,6 +38,10 @@ struct OctreeView {
     std::span<const std::uint32_t> words;
     std::span<const std::uint32_t> bricks;
     std::uint32_t max_level = 0xFFFFFFFFu;
+    /// Visibility feedback (sylva/shared/octree_dvr.h): when not empty (one word per node), the
+    /// renderers set word n to 1 for every cut leaf n a ray reached before terminating. The
+    /// out-of-core working set reads it (sylva/octree/residency.hpp: Residency::feedback()).
+    std::span<std::uint32_t> seen = {};
 };
 
 /// The TF's opacity prefix counts (sylva/shared/octree_dvr.h): entries + 1 words, word i = the
@@ -80,10 +84,11 @@ Frame render_octree_dvr_cpu(const OctreeView& o, const VolumeRenderParams& p, X&
         bw{o.bricks.data(), o.bricks.size()}, tw{p.tf.data(), p.tf.size()}, sw{tfsum.data(), tfsum.size()};
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     shared::SylvaOctHeader h = detail::octree_header(o);
+    shared::SeenWords seen{o.seen.data(), o.seen.size()};
     return detail::render_pixels(p, exec, [&](vec3 org, vec3 dir, std::uint32_t& steps) {
         std::uint32_t visits, status;
-        vec4 c = shared::sylva_oct_dvr_ray(ow, bw, tw, sw, sp, h, o.max_level, org, dir, 0.0f, shared::sylva_inf(), steps,
-                                           visits, status);
+        vec4 c = shared::sylva_oct_dvr_ray_seen(ow, bw, tw, sw, sp, h, o.max_level, org, dir, 0.0f, shared::sylva_inf(), seen,
+                                                steps, visits, status);
         if (status == SYLVA_ITER_ERROR) steps = 0xFFFFFFFFu;
         return c;
     });
@@ -99,27 +104,39 @@ Frame render_octree_iso_cpu(const OctreeView& o, const VolumeRenderParams& p, X&
         bw{o.bricks.data(), o.bricks.size()}, tw{p.tf.data(), p.tf.size()};
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     shared::SylvaOctHeader h = detail::octree_header(o);
+    shared::SeenWords seen{o.seen.data(), o.seen.size()};
     return detail::render_pixels(p, exec, [&](vec3 org, vec3 dir, std::uint32_t& steps) {
         std::uint32_t visits, status;
-        vec4 c = shared::sylva_oct_iso_ray(ow, bw, tw, sp, h, o.max_level, org, dir, 0.0f, shared::sylva_inf(), steps,
-                                           visits, status);
+        vec4 c = shared::sylva_oct_iso_ray_seen(ow, bw, tw, sp, h, o.max_level, org, dir, 0.0f, shared::sylva_inf(), seen,
+                                                steps, visits, status);
         if (status == SYLVA_ITER_ERROR) steps = 0xFFFFFFFFu;
         return c;
     });
 }
 
-/// The cut for a frame of p (its camera and height) under cfg: nodes the frame cannot see
-/// anything in are terminal (never refined): for DVR (`iso` false) those whose [min, max] the TF
-/// maps to zero opacity, for isosurfaces those whose max stays below p.iso.
+/// The nodes a frame of p cannot see anything in, never refined (section 4: empty nodes are
+/// terminal): for DVR (`iso` false) those whose [min, max] the TF maps to zero opacity, for
+/// isosurfaces those whose max stays below p.iso. Keeps a view of `words` (the index).
+struct OctreeTerminal {
+    std::span<const std::uint32_t> words;
+    std::vector<std::uint32_t> tfsum;
+    std::uint32_t entries = 0;
+    float iso_value = 0.0f;
+    bool iso = false;
+    OctreeTerminal(std::span<const std::uint32_t> w, const VolumeRenderParams& p, bool iso_mode)
+        : words(w), tfsum(tf_opacity_prefix(p.tf)), entries(static_cast<std::uint32_t>(p.tf.size())), iso_value(p.iso),
+          iso(iso_mode) {}
+    bool operator()(std::uint32_t n) const {
+        vec2 r = shared::sylva_oct_range(shared::Words{words.data(), words.size()}, n);
+        if (iso) return r.y < iso_value;
+        return shared::sylva_oct_tf_empty(shared::Words{tfsum.data(), tfsum.size()}, entries, r.x, r.y);
+    }
+};
+
+/// The cut for a frame of p (its camera and height) under cfg, OctreeTerminal's nodes terminal.
 inline octree::Cut select_octree_cut(std::span<const std::uint32_t> words, const VolumeRenderParams& p,
                                      const octree::CutConfig& cfg, bool iso) {
-    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
-    shared::Words ow{words.data(), words.size()}, sw{tfsum.data(), tfsum.size()};
-    auto terminal = [&](std::uint32_t n) {
-        vec2 r = shared::sylva_oct_range(ow, n);
-        if (iso) return r.y < p.iso;
-        return shared::sylva_oct_tf_empty(sw, static_cast<std::uint32_t>(p.tf.size()), r.x, r.y);
-    };
+    OctreeTerminal terminal(words, p, iso);
     return octree::select_cut(words, octree::cut_view(p.camera, p.width, p.height), cfg, terminal);
 }
 

@@ -30,6 +30,41 @@
 #include "sylva/shared/octree_iter.h"
 #include "sylva/shared/tf.h"
 
+// Visibility feedback (Gobbetti et al. section 6, as a buffer instead of occlusion queries):
+// the *_seen integrators mark, in a buffer of one word per node, every cut leaf a ray reached
+// before it terminated (early ray termination, an iso hit, or the end of the volume): the word is
+// set to 1, never cleared here (sylva/octree/residency.hpp clears it once a frame). Every writer
+// writes the same value, so concurrent rays need no ordering: on the host a relaxed atomic store,
+// in GLSL a plain store the shader defines as `void sylva_oct_store_seen(uint node)` (with
+// `#define SYLVA_OCT_SEEN_STORE` before including this header; without it marking compiles to
+// nothing). SYLVA_SEEN(name) declares the buffer parameter; SYLVA_OCT_NO_SEEN passes none (the
+// plain integrators do: no cost when unbound beyond one test per leaf on the host).
+#ifdef __cplusplus
+#include <atomic>
+namespace sylva::shared {
+/// A writable feedback buffer (host); data == nullptr: none.
+struct SeenWords {
+    std::uint32_t* data = nullptr;
+    std::size_t size = 0;
+};
+#define SYLVA_SEEN(name) const ::sylva::shared::SeenWords& name
+#define SYLVA_OCT_NO_SEEN ::sylva::shared::SeenWords{}
+/// Marks node as reached (out-of-range nodes are ignored).
+inline void sylva_oct_mark_seen(SYLVA_SEEN(seen), uint node) {
+    if (seen.data != nullptr && node < seen.size)
+        std::atomic_ref<std::uint32_t>(seen.data[node]).store(1u, std::memory_order_relaxed);
+}
+}  // namespace sylva::shared
+#else
+#define SYLVA_SEEN(name) uint name
+#define SYLVA_OCT_NO_SEEN 0u
+void sylva_oct_mark_seen(uint seen, uint node) {
+#ifdef SYLVA_OCT_SEEN_STORE
+    sylva_oct_store_seen(node);
+#endif
+}
+#endif
+
 SYLVA_BEGIN_NAMESPACE
 
 /// One node's brick as the sampler sees it.
@@ -157,13 +192,11 @@ SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SylvaDvr
     return state == SYLVA_OCT_BRICK_RESIDENT && !sylva_oct_tf_empty(SYLVA_PASS_BUF(tfsum), p.tf_entries, range.x, range.y);
 }
 
-/// Renders one ray origin + t * direction (normalised here) over [t_min, t_max] through the
-/// octree with header h (sylva_oct_read_header, once a frame), the cut's leaves at max_level.
-/// Returns premultiplied RGB and opacity; `steps` = lattice samples taken, `visits` = leaves
-/// visited, `status` = the walk's final status (SYLVA_ITER_ERROR: corrupted index).
-SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
-                                SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
-                                SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
+/// sylva_oct_dvr_ray that also marks in `seen` every cut leaf the ray reached before it
+/// terminated (the `visits` leaves; visibility feedback, top of this header).
+SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
+                                     SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+                                     SYLVA_SEEN(seen), SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
     steps = 0u;
     visits = 0u;
     status = SYLVA_ITER_DONE;
@@ -188,6 +221,7 @@ SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(t
     float t1;
     while (acc.alpha < p.alpha_stop && sylva_oct_next(it, SYLVA_PASS_BUF(words), node, t0, t1)) {
         visits = visits + 1u;
+        sylva_oct_mark_seen(seen, node);
         last_visible = sylva_oct_dvr_visible(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(tfsum), p, node);
         if (last_visible) {
             b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, node, it.level, it.coord);
@@ -202,6 +236,17 @@ SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(t
         sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, span.y, dt, units, steps);
     status = it.status;
     return sylva_dvr_result(acc);
+}
+
+/// Renders one ray origin + t * direction (normalised here) over [t_min, t_max] through the
+/// octree with header h (sylva_oct_read_header, once a frame), the cut's leaves at max_level.
+/// Returns premultiplied RGB and opacity; `steps` = lattice samples taken, `visits` = leaves
+/// visited, `status` = the walk's final status (SYLVA_ITER_ERROR: corrupted index).
+SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
+                                SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+                                SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
+    return sylva_oct_dvr_ray_seen(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), SYLVA_PASS_BUF(tfsum), p,
+                                  h, max_level, origin, direction, t_min, t_max, SYLVA_OCT_NO_SEEN, steps, visits, status);
 }
 
 SYLVA_END_NAMESPACE

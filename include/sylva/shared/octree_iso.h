@@ -82,13 +82,11 @@ SYLVA_FN bool sylva_oct_iso_visible(SYLVA_BUF(words), float iso, uint node) {
     return state == SYLVA_OCT_BRICK_RESIDENT && sylva_oct_range(SYLVA_PASS_BUF(words), node).y >= iso;
 }
 
-/// Renders one ray origin + t * direction (normalised here) over [t_min, t_max]: the first hit
-/// of the iso value p.iso through the octree with header h, the cut's leaves at max_level (or
-/// marked in the index). Returns the opaque shaded colour, or 0 when the ray misses; `steps` =
-/// lattice samples, `visits` = leaves visited, `status` = the walk's final status.
-SYLVA_FN vec4 sylva_oct_iso_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SylvaOctHeader h,
-                                uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
-                                SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
+/// sylva_oct_iso_ray that also marks in `seen` every cut leaf the ray reached up to its hit (the
+/// `visits` leaves; visibility feedback, sylva/shared/octree_dvr.h).
+SYLVA_FN vec4 sylva_oct_iso_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SylvaOctHeader h,
+                                     uint max_level, vec3 origin, vec3 direction, float t_min, float t_max, SYLVA_SEEN(seen),
+                                     SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
     steps = 0u;
     visits = 0u;
     status = SYLVA_ITER_DONE;
@@ -112,6 +110,7 @@ SYLVA_FN vec4 sylva_oct_iso_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(t
     float t_hit;
     while (sylva_oct_next(it, SYLVA_PASS_BUF(words), node, t0, t1)) {
         visits = visits + 1u;
+        sylva_oct_mark_seen(seen, node);
         last_visible = sylva_oct_iso_visible(SYLVA_PASS_BUF(words), p.iso, node);
         if (last_visible) {
             b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, node, it.level, it.coord);
@@ -129,6 +128,17 @@ SYLVA_FN vec4 sylva_oct_iso_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(t
         sylva_oct_iso_segment(SYLVA_PASS_BUF(bricks), b, origin, d, t_lo, span.y, dt, p.iso, span.x, steps, t_hit))
         return sylva_oct_iso_shade(SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_hit);
     return vec4(0.0f);
+}
+
+/// Renders one ray origin + t * direction (normalised here) over [t_min, t_max]: the first hit
+/// of the iso value p.iso through the octree with header h, the cut's leaves at max_level (or
+/// marked in the index). Returns the opaque shaded colour, or 0 when the ray misses; `steps` =
+/// lattice samples, `visits` = leaves visited, `status` = the walk's final status.
+SYLVA_FN vec4 sylva_oct_iso_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SylvaOctHeader h,
+                                uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+                                SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
+    return sylva_oct_iso_ray_seen(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, h, max_level, origin,
+                                  direction, t_min, t_max, SYLVA_OCT_NO_SEEN, steps, visits, status);
 }
 
 SYLVA_END_NAMESPACE

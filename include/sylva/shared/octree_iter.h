@@ -118,8 +118,9 @@ SYLVA_FN void sylva_oct_init(SYLVA_OUT(SylvaOctIter) it, SYLVA_BUF(words), uint 
 
 /// The cut's predicate: a node is a leaf of the current cut when it has no children (flags:
 /// its record word +1), sits at max_level or is marked SYLVA_OCT_CUT_LEAF (the view-dependent
-/// cut). The out-of-core cut will add its own conditions here (brick residency); the walk asks
-/// nothing else.
+/// cut). Brick residency is not the walk's business: the out-of-core working set
+/// (sylva/octree/residency.hpp) marks the cut so that its leaves are resident, and the
+/// integrators (octree_dvr.h, octree_iso.h) sample only bricks in state SYLVA_OCT_BRICK_RESIDENT.
 SYLVA_FN bool sylva_oct_is_cut_leaf(uint flags, uint level, uint max_level) {
     return sylva_oct_child_mask(flags) == 0u || level >= max_level || (flags & SYLVA_OCT_CUT_LEAF) != 0u;
 }

@@ -42,13 +42,48 @@ public:
           header_words_(view.words.begin(), view.words.begin() + SYLVA_OCT_HEADER_WORDS) {
         index_.upload(view.words);
     }
+    /// An octree whose bricks arrive later (the out-of-core brick pool,
+    /// sylva/octree/residency.hpp): `words` the index (word 7 = the pool's slots), a zeroed brick
+    /// buffer of `brick_buffer_words` words filled by write_bricks().
+    DeviceOctree(Context& ctx, std::span<const std::uint32_t> words, std::size_t brick_buffer_words, std::uint32_t shift = 0)
+        : header_(pool_header(words, brick_buffer_words)),
+          bricks_(empty_split(ctx, brick_buffer_words, shift)),
+          parts_(used_parts(brick_buffer_words, bricks_.shift)),
+          index_(ctx, words.size() * 4),
+          brick_words_(static_cast<std::uint32_t>(brick_buffer_words)),
+          max_level_(0xFFFFFFFFu),
+          header_words_(words.begin(), words.begin() + SYLVA_OCT_HEADER_WORDS) {
+        index_.upload(words);
+    }
+    /// Copies `words` into the brick buffer from word `first` (across its parts).
+    void write_bricks(std::size_t first, std::span<const std::uint32_t> words) {
+        if (first + words.size() > brick_words_) throw Error("vulkan octree: write_bricks beyond the brick buffer");
+        const std::size_t part = std::size_t{1} << bricks_.shift;
+        while (!words.empty()) {
+            std::size_t p = first >> bricks_.shift, at = first & (part - 1), n = std::min(words.size(), part - at);
+            bricks_.parts[p].upload(words.first(n), at);
+            words = words.subspan(n);
+            first += n;
+        }
+    }
+    /// The feedback buffer of `words` words (zeroed), made on first use and kept.
+    Buffer& feedback(Context& ctx, std::size_t words) {
+        if (!seen_ || seen_->size_bytes() != words * 4) seen_.emplace(ctx, words * 4);
+        else seen_->fill(0u);
+        return *seen_;
+    }
+    /// A 4-byte buffer bound where no feedback is wanted.
+    Buffer& no_feedback(Context& ctx) {
+        if (!dummy_) dummy_.emplace(ctx, 4);
+        return *dummy_;
+    }
     [[nodiscard]] const shared::SylvaOctHeader& header() const { return header_; }
     [[nodiscard]] std::uint32_t brick_words() const { return brick_words_; }
     [[nodiscard]] std::uint32_t max_level() const { return max_level_; }
     /// The kernel for this octree's brick split, built on first use and kept.
     Kernel& kernel(Context& ctx) {
         std::array<std::uint32_t, 2> constants{bricks_.shift, parts_};
-        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 9, 12, constants);
+        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 10, 16, constants);
         return *kernel_;
     }
     [[nodiscard]] Buffer* brick_part(std::size_t i) { return &bricks_.parts[i]; }
@@ -63,6 +98,27 @@ public:
     }
 
 private:
+    static shared::SylvaOctHeader pool_header(std::span<const std::uint32_t> words, std::size_t brick_buffer_words) {
+        if (brick_buffer_words > 0xFFFFFFFFu) throw Error("vulkan octree: brick pool over 2^32 words");
+        shared::SylvaOctHeader h = shared::sylva_oct_read_header(shared::Words{words.data(), words.size()},
+                                                                 std::uint32_t(words.size()), std::uint32_t(brick_buffer_words));
+        if (words.size() > 0xFFFFFFFFu || h.valid == 0u)
+            throw Error("vulkan octree: not a valid encoded octree for a pool of " + std::to_string(brick_buffer_words) + " words");
+        return h;
+    }
+    static SplitWords empty_split(Context& ctx, std::size_t words, std::uint32_t shift) {
+        if (shift == 0) shift = default_split_shift(ctx);
+        const std::size_t part = std::size_t{1} << shift;
+        if (words > 4 * part) throw Error("vulkan octree: a brick pool of " + std::to_string(words) + " words exceeds 4 bindings");
+        SplitWords split;
+        split.shift = shift;
+        for (std::size_t p = 0; p < 4; ++p) {
+            std::size_t first = p * part, count = first < words ? std::min(part, words - first) : 0;
+            split.parts.emplace_back(ctx, count * 4);
+        }
+        return split;
+    }
+
     shared::SylvaOctHeader header_;
     SplitWords bricks_;
     std::uint32_t parts_;
@@ -71,11 +127,23 @@ private:
     std::uint32_t max_level_;
     std::vector<std::uint32_t> header_words_;
     std::optional<Kernel> kernel_;
+    std::optional<Buffer> seen_, dummy_;
+};
+
+/// The device pool of sylva/octree/residency.hpp on a DeviceOctree: slot s is brick words
+/// [s * brick_words, (s + 1) * brick_words) of its brick buffer.
+struct DeviceBrickPool {
+    DeviceOctree* octree = nullptr;
+    std::uint32_t brick_words = 0;
+    void write_brick(std::uint32_t slot, std::span<const std::uint32_t> brick) {
+        octree->write_bricks(std::size_t{slot} * brick_words, brick);
+    }
 };
 
 namespace detail {
 
-inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p, std::uint32_t mode) {
+inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p, std::uint32_t mode,
+                                  std::span<std::uint32_t> seen) {
     std::vector<std::uint32_t> params = sylva::detail::pack_dvr(oct.header().dims, oct.header().spacing, p);
     std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
     Buffer tf(ctx, p.tf.size() * 4), sum(ctx, tfsum.size() * 4), pb(ctx, params.size() * 4),
@@ -83,9 +151,10 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
     tf.upload(p.tf);
     sum.upload(tfsum);
     pb.upload(params);
-    std::array<Buffer*, 9> bind{oct.brick_part(0), oct.brick_part(1), oct.brick_part(2), oct.brick_part(3), oct.index(),
-                                &tf,               &sum,              &pb,               &out};
-    std::array<std::uint32_t, 3> push{oct.max_level(), oct.brick_words(), mode};
+    Buffer& fb = seen.empty() ? oct.no_feedback(ctx) : oct.feedback(ctx, seen.size());
+    std::array<Buffer*, 10> bind{oct.brick_part(0), oct.brick_part(1), oct.brick_part(2), oct.brick_part(3), oct.index(),
+                                 &tf,               &sum,              &pb,               &out,              &fb};
+    std::array<std::uint32_t, 4> push{oct.max_level(), oct.brick_words(), mode, seen.empty() ? 0u : 1u};
     Frame f{p.width, p.height, std::vector<vec4>(std::size_t{p.width} * p.height),
             std::vector<std::uint32_t>(std::size_t{p.width} * p.height), 0.0};
     f.ms = ctx.dispatch(oct.kernel(ctx), bind, push.data(), sizeof push, groups_for(p.width, 8), groups_for(p.height, 8));
@@ -95,6 +164,10 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
         std::memcpy(&f.rgba[i], &px[i * 5], 16);
         f.steps[i] = px[i * 5 + 4];
     }
+    if (!seen.empty()) {
+        std::vector<std::uint32_t> marks = fb.download_words();
+        for (std::size_t i = 0; i < seen.size() && i < marks.size(); ++i) seen[i] |= marks[i];
+    }
     return f;
 }
 
@@ -102,14 +175,18 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
 
 /// Renders the octree on the device with its view's cut; same output as render_octree_dvr_cpu
 /// (lattice samples, statuses exact; colours within the transcendentals' few ulp).
-inline Frame render_octree_dvr_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p) {
-    return detail::render_octree_vulkan(ctx, oct, p, 0u);
+/// With `seen` (one word per node) the visibility feedback of sylva/shared/octree_dvr.h is
+/// OR-ed into it (nonzero: a ray reached the cut leaf).
+inline Frame render_octree_dvr_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p,
+                                      std::span<std::uint32_t> seen = {}) {
+    return detail::render_octree_vulkan(ctx, oct, p, 0u, seen);
 }
 
 /// The first hit of p.iso on the device; same output as render_octree_iso_cpu (hits and samples
 /// exact; colours within the shading's transcendentals' few ulp).
-inline Frame render_octree_iso_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p) {
-    return detail::render_octree_vulkan(ctx, oct, p, 1u);
+inline Frame render_octree_iso_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p,
+                                      std::span<std::uint32_t> seen = {}) {
+    return detail::render_octree_vulkan(ctx, oct, p, 1u, seen);
 }
 
 }  // namespace sylva::vk
