@@ -111,7 +111,8 @@ void record_embree_build(const Context& c, const Builder& b, const std::vector<d
 #endif
 }
 
-/// Builds the default, leaf4 and query BIHs and the Embree scene, interleaved; then the encodings.
+/// Builds the default, leaf4 and query BIHs, the element octree and the Embree scene,
+/// interleaved; then the encodings.
 SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres, const std::string& label) {
     SylvaIndex idx;
     std::vector<double> setup;
@@ -119,6 +120,7 @@ SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres
     bs.push_back({[&] { return time_sylva_build(idx.tree, spheres, TreeKind::Default, c.pool); }});
     bs.push_back({[&] { return time_sylva_build(idx.leaf4_tree, spheres, TreeKind::Leaf4, c.pool); }});
     bs.push_back({[&] { return time_sylva_build(idx.query_tree, spheres, TreeKind::Query, c.pool); }});
+    bs.push_back({[&] { return time_octree_build(idx.octree_tree, spheres, c.pool); }});
 #if SYLVA_BENCH_EMBREE
     bs.push_back({[&] {
         EmbreePeer::BuildTimes t = c.embree->build(spheres);
@@ -131,7 +133,8 @@ SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres
     record_sylva_build(c.report, build, build, bs[0].ms, idx.tree, "fixed16");
     record_sylva_build(c.report, build + "/leaf4", build, bs[1].ms, idx.leaf4_tree, "fixed16-leaf4");
     record_sylva_build(c.report, build + "/query", build, bs[2].ms, idx.query_tree, "fixed16-query");
-    if (bs.size() > 3) record_embree_build(c, bs[3], setup, spheres.size(), build);
+    record_octree_build(c.report, build + "/octree", build, bs[3].ms, idx.octree_tree);
+    if (bs.size() > 4) record_embree_build(c, bs[4], setup, spheres.size(), build);
     bench_sylva_encode(idx, spheres, c.opt, c.report, label, c.pool);
     // The wide tree's whole build: the leaf4 BIH it collapses plus the collapse (medians).
     double wide_ms = median(bs[1].ms) + median(idx.wide_ms);

@@ -9,6 +9,8 @@
 #include <sylva/bih/encode.hpp>
 #include <sylva/bih/payload.hpp>
 #include <sylva/bih/query.hpp>
+#include <sylva/octree/elements_encode.hpp>
+#include <sylva/shared/octree_elem_iter.h>
 
 namespace bench {
 
@@ -41,6 +43,33 @@ std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sp
     return words;
 }
 
+/// The element octree's walk steps (nodes entered) and leaves with references per ray; first
+/// hit: ending the walk at the end of the leaf where octree::first_hit's answer becomes final.
+TraversalCost octree_cost(const std::vector<std::uint32_t>& words, const std::vector<Sphere>& spheres,
+                          std::span<const sylva::Ray> rays, bool first) {
+    namespace sh = sylva::shared;
+    sh::Words w{words.data(), words.size()};
+    double steps = 0.0, leaves = 0.0;
+    for (const sylva::Ray& ray : rays) {
+        sh::SylvaOctElemIter it;
+        sh::sylva_octe_init(it, w, static_cast<std::uint32_t>(words.size()), ray.origin, ray.direction, 0.0f, sh::sylva_inf());
+        std::uint32_t node, at, count;
+        float t0, t1, best = std::numeric_limits<float>::infinity();
+        while (sh::sylva_octe_next(it, w, node, t0, t1, at, count)) {
+            leaves += 1.0;
+            if (!first) continue;
+            for (std::uint32_t k = 0; k < count; ++k) {
+                auto t = sylva::intersect_element(spheres[words[at + k]], ray, sylva::Interval{});
+                if (t && t->t0 < best) best = t->t0;
+            }
+            if (best < t1) break;
+        }
+        steps += it.walk.steps;
+    }
+    double n = static_cast<double>(std::max<std::size_t>(rays.size(), 1));
+    return {steps / n, leaves / n};
+}
+
 }  // namespace
 
 void describe_configs(Report& report) {
@@ -54,6 +83,30 @@ void describe_configs(Report& report) {
     report.describe("fixed16-query", "bih::Config::for_queries() (up to 32 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
                              "TreeChunks, 2}, RangePayload; bih::LeafRecords (spheres in leaf order, 16-byte records, "
                              "tested four at a time); bih::first_hit / all_hits(words, records)");
+    report.describe("octree", "octree::build_elements(spheres, ElementConfig{}) (issue 12: Gobbetti's node encoding with "
+                              "neighbour pointers, straddling references, leaves of 8, max_growth 3) over the spheres "
+                              "in their order; octree::encode_elements; octree::first_hit / all_hits(words, spheres) "
+                              "(the stackless neighbour-pointer walk of sylva/shared/octree_elem_iter.h)");
+}
+
+double time_octree_build(sylva::octree::ElementTree& out, const std::vector<Sphere>& spheres, sylva::ThreadPool& pool) {
+    out = {};
+    return time_ms([&] { out = sylva::octree::build_elements(std::span<const Sphere>(spheres), {}, pool); });
+}
+
+void record_octree_build(Report& report, const std::string& name, const std::string& peer, const std::vector<double>& ms,
+                         const sylva::octree::ElementTree& tree) {
+    double b = median(ms);
+    double n = static_cast<double>(tree.element_count);
+    report.add(name, "sylva", "build_ms", b, "ms", peer, "octree");
+    report.add(name, "sylva", "build_elements_per_s", per_s(n, b), "elements/s", peer, "octree");
+    report.add(name, "sylva", "runs", static_cast<double>(ms.size()), "runs", peer, "octree");
+    report.add(name, "sylva", "nodes", static_cast<double>(tree.tree.nodes.size()), "nodes", "", "octree");
+    std::uint32_t depth = 0;
+    for (const sylva::octree::Node& node : tree.tree.nodes) depth = std::max(depth, node.level);
+    report.add(name, "sylva", "max_depth", static_cast<double>(depth), "levels", "", "octree");
+    report.add(name, "sylva", "references_per_element", static_cast<double>(tree.refs.size()) / std::max(n, 1.0), "refs",
+               "", "octree");
 }
 
 double time_sylva_build(bih::Tree& out, const std::vector<Sphere>& spheres, TreeKind kind, sylva::ThreadPool& pool) {
@@ -110,6 +163,12 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
     report.add(enc + "/wide", "sylva", "wide_nodes", static_cast<double>(idx.wide.stats().nodes), "nodes", "", "wide");
     report.add(enc + "/wide", "sylva", "wide_leaves", static_cast<double>(idx.wide.stats().leaves), "leaves", "",
                "wide");
+    auto oct_ms = samples(opt.runs, opt.encode_budget_ms(), [&] {
+        idx.octree = {};
+        return time_ms([&] { idx.octree = sylva::octree::encode_elements(idx.octree_tree); });
+    });
+    report.add(enc + "/octree", "sylva", "encode_ms", median(oct_ms), "ms", "", "octree");
+    report.add(build + "/octree", "sylva", "bytes", static_cast<double>(idx.octree.size() * 4), "bytes", build, "octree");
     report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build, "fixed16");
     report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build,
                "fixed16-leaf4");
@@ -122,20 +181,21 @@ std::vector<Variant> variants(const SylvaIndex& idx) {
             {"float32", &idx.tree, &idx.float32},
             {"fixed16-leaf4", &idx.leaf4_tree, &idx.leaf4},
             {"fixed16-query", &idx.query_tree, &idx.query, &idx.query_records},
-            {"wide", &idx.leaf4_tree, &idx.leaf4, nullptr, &idx.wide}};
+            {"wide", &idx.leaf4_tree, &idx.leaf4, nullptr, &idx.wide},
+            {"octree", nullptr, &idx.octree, nullptr, nullptr, true}};
 }
 
 FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
                            sylva::ThreadPool& pool) {
     FirstHits out{std::vector<std::uint32_t>(rays.size(), kNoHit)};
     std::span<const std::uint32_t> w(*v.words);
-    const bih::Tree& tree = *v.tree;
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         for (std::size_t i = lo; i < hi; ++i) {
-            auto h = v.wide      ? bih::first_hit(*v.wide, rays[i])
-                     : v.records ? bih::first_hit(w, *v.records, rays[i])
-                                 : bih::first_hit(w, tree, es, rays[i]);
+            auto h = v.element_octree ? sylva::octree::first_hit(w, es, rays[i])
+                     : v.wide         ? bih::first_hit(*v.wide, rays[i])
+                     : v.records      ? bih::first_hit(w, *v.records, rays[i])
+                                      : bih::first_hit(w, *v.tree, es, rays[i]);
             if (h) out.id[i] = h->element;
         }
     });
@@ -146,17 +206,18 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
                        sylva::ThreadPool& pool) {
     AllHits out{std::vector<std::uint32_t>(rays.size(), 0), std::vector<std::uint64_t>(rays.size(), 0)};
     std::span<const std::uint32_t> w(*v.words);
-    const bih::Tree& tree = *v.tree;
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         std::vector<bih::ElementHit> hits;
         for (std::size_t i = lo; i < hi; ++i) {
-            if (v.wide)
+            if (v.element_octree)
+                sylva::octree::all_hits(w, es, rays[i], hits);
+            else if (v.wide)
                 bih::all_hits(*v.wide, rays[i], hits);
             else if (v.records)
                 bih::all_hits(w, *v.records, rays[i], hits);
             else
-                bih::all_hits(w, tree, es, rays[i], hits);
+                bih::all_hits(w, *v.tree, es, rays[i], hits);
             std::uint64_t set = 0;
             for (const auto& h : hits) set += mix_id(h.element);
             out.count[i] = static_cast<std::uint32_t>(hits.size());
@@ -169,7 +230,9 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
 HitList sylva_hit_list(const Variant& v, const std::vector<Sphere>& spheres) {
     return [v, &spheres](const sylva::Ray& ray) {
         std::vector<bih::ElementHit> hits;
-        if (v.wide)
+        if (v.element_octree)
+            sylva::octree::all_hits(std::span<const std::uint32_t>(*v.words), std::span<const Sphere>(spheres), ray, hits);
+        else if (v.wide)
             bih::all_hits(*v.wide, ray, hits);
         else if (v.records)
             bih::all_hits(std::span<const std::uint32_t>(*v.words), *v.records, ray, hits);
@@ -194,6 +257,7 @@ TraversalCost sylva_cost(const Variant& v, const std::vector<Sphere>& spheres, s
         }
         return {steps / n, leaves / n};
     }
+    if (v.element_octree) return octree_cost(*v.words, spheres, rays, first);
     for (const sylva::Ray& ray : rays) {
         bih::LeafIterator it(std::span<const std::uint32_t>(*v.words), ray);
         float best = std::numeric_limits<float>::infinity();

@@ -11,6 +11,7 @@
 #include <sylva/bih/tree.hpp>
 #include <sylva/bih/wide.hpp>
 #include <sylva/core/executor.hpp>
+#include <sylva/octree/elements.hpp>
 
 #include "bench.hpp"
 
@@ -30,6 +31,8 @@ struct SylvaIndex {
     sylva::bih::LeafRecords<sylva::Sphere> query_records;
     sylva::bih::WideTree<sylva::Sphere> wide;  ///< leaf4_tree collapsed (bih::WideTree, WideConfig{})
     std::vector<double> wide_ms;               ///< the collapse's timed runs
+    sylva::octree::ElementTree octree_tree;    ///< the element octree (octree::ElementConfig{}), spheres in order
+    std::vector<std::uint32_t> octree;         ///< its encoding (octree::encode_elements)
 };
 
 /// One encoding the traversal cases run: its name in case names, its tree and words, and the
@@ -40,8 +43,10 @@ struct Variant {
     const std::vector<std::uint32_t>* words;
     const sylva::bih::LeafRecords<sylva::Sphere>* records = nullptr;
     const sylva::bih::WideTree<sylva::Sphere>* wide = nullptr;  ///< queries run on this when set
+    bool element_octree = false;  ///< `words` is an element octree (octree::first_hit / all_hits)
 };
-/// fixed16 and float32 of the default tree, fixed16-leaf4, fixed16-query, then wide.
+/// fixed16 and float32 of the default tree, fixed16-leaf4, fixed16-query, wide, then the
+/// element octree ("octree").
 std::vector<Variant> variants(const SylvaIndex& idx);
 
 /// What each configuration name in case names means (build and encode settings, query path).
@@ -53,6 +58,13 @@ enum class TreeKind { Default, Leaf4, Query };
 /// One timed bih::build into `out` (its previous tree is freed before the clock starts); ms.
 double time_sylva_build(sylva::bih::Tree& out, const std::vector<sylva::Sphere>& spheres, TreeKind kind,
                         sylva::ThreadPool& pool);
+/// One timed octree::build_elements (ElementConfig{}) into `out`; ms.
+double time_octree_build(sylva::octree::ElementTree& out, const std::vector<sylva::Sphere>& spheres,
+                         sylva::ThreadPool& pool);
+/// Records the element octree's median build time, elements/s, runs and shape (nodes, levels,
+/// references per sphere) under `name`.
+void record_octree_build(Report& report, const std::string& name, const std::string& peer,
+                         const std::vector<double>& ms, const sylva::octree::ElementTree& tree);
 /// Records a build's median time, elements/s, runs and the tree's shape under `name`.
 void record_sylva_build(Report& report, const std::string& name, const std::string& peer,
                         const std::vector<double>& ms, const sylva::bih::Tree& tree, const std::string& config);

@@ -1,4 +1,4 @@
-// sylva-bench: sylva's BIH against Embree 3 on the same spheres and the same rays.
+// sylva-bench: sylva's BIH and element octree against Embree 3 on the same spheres and the same rays.
 //
 //   sylva-bench [--json FILE] [--sizes 1e4,1e5,1e6,1e7] [--rays N] [--runs K] [--threads T]
 //               [--cases build,first,all,clustered] [--quick]
@@ -8,7 +8,8 @@
 // streaming-read floor over the largest encoding. sylva runs in several configurations, each
 // named in the case names and described under the tables and in the JSON ("config"): the
 // paper's trimmed one-sphere leaves (fixed16, float32), 4 spheres a leaf (leaf4), and the
-// query tree (bih::Config::for_queries(), elements in leaf order via bih::LeafRecords). --pass-seconds caps the rays and runs of the
+// query tree (bih::Config::for_queries(), elements in leaf order via bih::LeafRecords), and the
+// element octree ("octree": octree::build_elements with its defaults, issue 12). --pass-seconds caps the rays and runs of the
 // slow cases so that the default run stays near five minutes on two cores.
 // Traversal results are cross-checked ray by ray against Embree (or, without it, the two node
 // formats against each other); a disagreement that is not a grazed sphere or a tie, or more
