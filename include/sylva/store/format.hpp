@@ -53,7 +53,7 @@ struct BuildInfo {
     std::uint32_t levels = 0;          ///< octree levels L
     std::uint32_t node_count = 0;      ///< nodes = bricks (every node of the volume octree has one)
     Codec codec = Codec::zstd;
-    int level = 1;                     ///< zstd level (0 for the others)
+    int level = 1;                     ///< zstd level, -5 .. 19 (negative: zstd's fast modes; 0 for the others)
 
     /// Words per brick, (B + 2 border)^3.
     [[nodiscard]] std::uint32_t brick_words() const {
@@ -142,7 +142,12 @@ inline BuildInfo build_info_from_text(std::string_view text) {
         else if (k == "levels") b.levels = parse_u32(v, "levels"), seen |= 256;
         else if (k == "nodes") b.node_count = parse_u32(v, "nodes"), seen |= 512;
         else if (k == "codec") b.codec = codec_from_name(v), seen |= 1024;
-        else if (k == "level") b.level = int(parse_u32(v, "level")), seen |= 2048;
+        else if (k == "level") {
+            bool negative = !v.empty() && v.front() == '-';
+            int magnitude = int(parse_u32(negative ? v.substr(1) : v, "level"));
+            b.level = negative ? -magnitude : magnitude;
+            seen |= 2048;
+        }
     }
     if (seen != 4095u) throw Error("store: build info lacks fields");
     return b;

@@ -133,7 +133,7 @@ inline Store Store::open(const std::filesystem::path& path, bool allow_incomplet
     s.env_ = std::make_unique<lmdb::Env>(s.where());
     lmdb::check(mdb_env_set_maxdbs(s.env_->get(), 4), s.where(), "mdb_env_set_maxdbs");
     lmdb::check(mdb_env_set_maxreaders(s.env_->get(), 256), s.where(), "mdb_env_set_maxreaders");
-    lmdb::check(mdb_env_open(s.env_->get(), path.c_str(), MDB_RDONLY | MDB_NOTLS | MDB_NORDAHEAD, 0644), s.where(),
+    lmdb::check(mdb_env_open(s.env_->get(), path.c_str(), MDB_RDONLY | MDB_NOTLS, 0644), s.where(),
                 "mdb_env_open");
     detail::check_not_truncated(s.env_->get(), data, s.where());
     s.read_meta();

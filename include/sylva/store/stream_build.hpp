@@ -18,6 +18,12 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <thread>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -109,11 +115,92 @@ inline volume::Dims level_dims(volume::Dims d, std::uint32_t s) {
     return d;
 }
 
+/// Hands encoded bricks to a StoreWriter on a thread of its own, so that LMDB's page writes and
+/// fsyncs overlap the encoding. Holds at most `max_bytes` of bricks waiting; a writer error
+/// (a full disk) is rethrown by the next push() or by finish().
+class WriteQueue {
+public:
+    using Batch = std::vector<std::pair<std::uint32_t, std::vector<std::byte>>>;
+    WriteQueue(StoreWriter& w, std::uint64_t max_bytes) : w_(w), max_(max_bytes), thread_([this] { loop(); }) {}
+    WriteQueue(const WriteQueue&) = delete;
+    WriteQueue& operator=(const WriteQueue&) = delete;
+    ~WriteQueue() { stop(); }
+
+    void push(Batch&& b) {
+        std::uint64_t bytes = 0;
+        for (auto& e : b) bytes += e.second.size();
+        std::unique_lock lock(m_);
+        drained_.wait(lock, [&] { return error_ || pending_ == 0 || pending_ + bytes <= max_; });
+        if (error_) std::rethrow_exception(error_);
+        pending_ += bytes;
+        queue_.push_back(std::move(b));
+        ready_.notify_one();
+    }
+    /// Writes what is queued, commits, and rethrows a writer error.
+    void finish() {
+        stop();
+        if (error_) std::rethrow_exception(error_);
+    }
+
+private:
+    void stop() {
+        {
+            std::lock_guard lock(m_);
+            if (done_) return;
+            done_ = true;
+        }
+        ready_.notify_one();
+        thread_.join();
+    }
+    void loop() {
+        for (;;) {
+            Batch b;
+            {
+                std::unique_lock lock(m_);
+                ready_.wait(lock, [&] { return done_ || !queue_.empty(); });
+                if (queue_.empty()) break;
+                b = std::move(queue_.front());
+                queue_.pop_front();
+            }
+            std::uint64_t bytes = 0;
+            try {
+                for (auto& e : b) {
+                    bytes += e.second.size();
+                    if (!error_) w_.put(e.first, e.second);
+                }
+            } catch (...) {
+                std::lock_guard lock(m_);
+                error_ = std::current_exception();
+            }
+            std::lock_guard lock(m_);
+            pending_ -= std::min(pending_, bytes);
+            drained_.notify_all();
+        }
+        try {
+            if (!error_) w_.commit();
+        } catch (...) {
+            std::lock_guard lock(m_);
+            error_ = std::current_exception();
+        }
+    }
+
+    StoreWriter& w_;
+    std::uint64_t max_;
+    std::mutex m_;
+    std::condition_variable ready_, drained_;
+    std::deque<Batch> queue_;
+    std::uint64_t pending_ = 0;
+    bool done_ = false;
+    std::exception_ptr error_;
+    std::thread thread_;  // last: starts after the members it uses
+};
+
 /// The streamed build (see the top of this header).
 class StreamBuilder {
 public:
     StreamBuilder(SliceSource& src, octree::Tree skel, const StreamConfig& cfg, StoreWriter* writer, ThreadPool& pool)
         : src_(src), t_(std::move(skel)), cfg_(cfg), writer_(writer), pool_(pool) {
+        if (writer_) stored_ = writer_->stored_keys();
         const std::uint32_t cap = window_slices(cfg.octree);
         levels_.resize(t_.levels);
         for (std::uint32_t s = 0; s < t_.levels; ++s) {
@@ -141,6 +228,9 @@ public:
 
     void run(StreamResult& r) {
         start_ = std::chrono::steady_clock::now();
+        std::optional<WriteQueue> queue;
+        if (writer_) queue.emplace(*writer_, std::max<std::uint64_t>(cfg_.writer.batch_bytes, 4u << 20));
+        queue_ = queue ? &*queue : nullptr;
         progress_.bricks_total = t_.nodes.size();
         progress_.slices_total = t_.dims.z;
         std::vector<float> slice(std::size_t(t_.dims.x) * t_.dims.y);
@@ -150,7 +240,7 @@ public:
             progress_.source_bytes += src_.slice_source_bytes();
             push(0, z, slice);
         }
-        flush();
+        if (queue_) queue_->finish();
         fold_ranges();
         r.bricks_written = written_;
         r.bricks_skipped = skipped_;
@@ -281,8 +371,7 @@ private:
             const std::size_t n = std::min<std::size_t>(cfg_.batch_bricks, L.row_start[cz + 1u] - i);
             batch_.resize(n);
             todo_.assign(n, 1);
-            if (writer_)
-                for (std::size_t j = 0; j < n; ++j) todo_[j] = !writer_->has(L.order[i + j]);
+            for (std::size_t j = 0; j < n; ++j) todo_[j] = stored_.empty() || !stored_[L.order[i + j]];
             pool_.parallel_for(0, n, 1, [&](std::size_t j0, std::size_t j1) {
                 std::vector<std::uint32_t> words_buf(words);
                 for (std::size_t j = j0; j < j1; ++j) {
@@ -293,21 +382,19 @@ private:
                     encode_brick(words_buf, cfg_.codec, cfg_.level, batch_[j]);
                 }
             });
+            WriteQueue::Batch out;
             for (std::size_t j = 0; j < n; ++j) {
                 if (!todo_[j]) {
                     ++skipped_;
                     continue;
                 }
-                if (writer_) writer_->put(L.order[i + j], batch_[j]);
                 stored_bytes_ += batch_[j].size();
                 ++written_;
+                if (queue_) out.emplace_back(L.order[i + j], std::move(batch_[j]));
             }
+            if (queue_ && !out.empty()) queue_->push(std::move(out));
             report();
         }
-    }
-
-    void flush() {
-        if (writer_) writer_->commit();
     }
 
     void report() {
@@ -343,6 +430,8 @@ private:
     std::vector<std::pair<float, float>> own_;
     std::vector<std::vector<std::byte>> batch_;
     std::vector<char> todo_;
+    std::vector<char> stored_;          ///< per key: already stored (resume)
+    WriteQueue* queue_ = nullptr;
     std::uint64_t written_ = 0, skipped_ = 0, stored_bytes_ = 0;
     StreamProgress progress_;
     std::chrono::steady_clock::time_point start_;

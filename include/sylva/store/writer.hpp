@@ -72,6 +72,8 @@ public:
 
     /// True when brick `key` is already stored (a resumed build skips it).
     [[nodiscard]] bool has(std::uint32_t key) const;
+    /// Per key below the node count, 1 when that brick is stored (one cursor pass).
+    [[nodiscard]] std::vector<char> stored_keys() const;
     /// Adds an encoded brick (sylva/store/codec.hpp); commits when the batch is full.
     void put(std::uint32_t key, std::span<const std::byte> encoded);
     /// Commits the current batch.
@@ -166,6 +168,22 @@ inline bool StoreWriter::has(std::uint32_t key) const {
     if (txn_) return lmdb::get(*txn_, bricks_, lmdb::brick_key(k), v, where());
     lmdb::Txn txn(*env_, MDB_RDONLY);
     return lmdb::get(txn, bricks_, lmdb::brick_key(k), v, where());
+}
+
+inline std::vector<char> StoreWriter::stored_keys() const {
+    std::vector<char> out(info_.node_count, 0);
+    lmdb::Txn txn(*env_, MDB_RDONLY);
+    MDB_cursor* cur = nullptr;
+    lmdb::check(mdb_cursor_open(txn.get(), bricks_, &cur), where(), "mdb_cursor_open");
+    MDB_val k, v;
+    for (int rc = mdb_cursor_get(cur, &k, &v, MDB_FIRST); rc == MDB_SUCCESS; rc = mdb_cursor_get(cur, &k, &v, MDB_NEXT)) {
+        unsigned key = 0;
+        if (k.mv_size != sizeof key) continue;
+        std::memcpy(&key, k.mv_data, sizeof key);
+        if (key < out.size()) out[key] = 1;
+    }
+    mdb_cursor_close(cur);
+    return out;
 }
 
 inline void StoreWriter::begin() {
