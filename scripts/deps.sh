@@ -23,6 +23,7 @@ packages=(
   zlib1g-dev                         # gzip-encoded NRRD volumes (optional)
   clang libclang-rt-dev libfuzzer-14-dev  # fuzz targets (scripts/fuzz.sh): clang, its sanitizer runtimes, libFuzzer
   liblmdb-dev libzstd-dev liblz4-dev libxxhash-dev  # the out-of-core brick store (sylva::store, sylva-store)
+  libhdf5-dev                        # sylva-store-bench: HDF5 chunked datasets, the peer of the LMDB store (optional)
 )
 
 if [[ ${1:-} == --list ]]; then

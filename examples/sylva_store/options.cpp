@@ -20,6 +20,7 @@ const char* usage() {
            "compressed with its XXH3 checksum, the build settings and a format version. The build never\n"
            "holds the volume: its memory stays under --memory (default 1G; K/M/G suffixes). A build that\n"
            "stops (kill, full disk) leaves an incomplete store; the same command with --resume finishes it.\n"
+           "--level: zstd's level, 1 (default) to 19, or -1 to -5 for its fast modes.\n"
            "verify checks every brick's checksum: exit 1 and the bad brick keys when any fails or the store\n"
            "is incomplete.\n";
 }
@@ -73,7 +74,10 @@ Options parse(int argc, char** argv) {
         else if (a == "--brick") o.brick = static_cast<std::uint32_t>(std::stoul(one_of(a, value(), {"4", "8", "16", "32", "64"})));
         else if (a == "--border") o.border = static_cast<std::uint32_t>(std::stoul(one_of(a, value(), {"1", "2"})));
         else if (a == "--compress") o.codec = one_of(a, value(), {"zstd", "lz4", "none"});
-        else if (a == "--level") o.level = static_cast<int>(number(a, value(), 1, 19));
+        else if (a == "--level") {
+            o.level = static_cast<int>(number(a, value(), -5, 19));
+            if (o.level == 0) throw std::invalid_argument("--level: 0 is not a level (1..19, or -1..-5 for zstd's fast modes)");
+        }
         else if (a == "--memory") o.memory = parse_bytes(a, value());
         else if (a == "--resume") o.resume = true;
         else if (a == "--resample") o.resample = static_cast<float>(number(a, value(), 0.1, 16));

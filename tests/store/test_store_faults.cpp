@@ -136,6 +136,30 @@ TEST_CASE("a full map stops the build with the space needed; resume finishes the
     CHECK(done.content_digest() == store::Store::open(dir / "ref").content_digest());
 }
 
+TEST_CASE("resume refuses an interrupted store of other settings or input", "[store]") {
+    TempDir dir;
+    ThreadPool pool(1);
+    store::StreamConfig cfg;
+    cfg.octree = {8, 2};
+    cfg.codec = store::Codec::none;
+    cfg.writer.map_bytes = 1u << 20;  // stops early: an incomplete store
+    store::MarschnerLobbSlices a({40, 40, 40});
+    CHECK_THROWS_AS(store::build_store(a, "ml", dir / "s", cfg, pool), store::DiskFullError);
+    cfg.writer.map_bytes = 64u << 20;
+    cfg.resume = true;
+    store::StreamConfig other = cfg;
+    other.octree = {16, 2};
+    store::MarschnerLobbSlices b({40, 40, 40});
+    CHECK_THROWS_WITH(store::build_store(b, "ml", dir / "s", other, pool), Catch::Contains("other settings"));
+    store::MarschnerLobbSlices c({40, 40, 41});
+    CHECK_THROWS_WITH(store::build_store(c, "ml", dir / "s", cfg, pool), Catch::Contains("other settings"));
+    store::MarschnerLobbSlices d({40, 40, 40});
+    CHECK_THROWS_WITH(store::build_store(d, "other input", dir / "s", cfg, pool), Catch::Contains("other settings"));
+    store::MarschnerLobbSlices e({40, 40, 40});
+    store::build_store(e, "ml", dir / "s", cfg, pool);
+    CHECK(store::Store::open(dir / "s").verify().ok());
+}
+
 TEST_CASE("resume refuses other settings and finished stores", "[store]") {
     TempDir dir;
     ThreadPool pool(1);
