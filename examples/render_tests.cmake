@@ -339,3 +339,36 @@ sylva_render_test(octree_several_isos RC 2 ERR "several --iso values need --inde
   ARGS --index octree --mode iso --iso 0.2,0.4 -o ${_out}/x.png)
 sylva_render_test(octree_multi RC 2 ERR "--dvr multi is BIH-DVR's"
   ARGS --index octree --dvr multi -o ${_out}/x.png)
+
+# The out-of-core octree (issue 13, ooc_scene.hpp): progressive frames within small budgets on
+# both backends, from the in-core tree and from a brick store made by sylva-store; bad options.
+set(_ooc_keys "host_cache_bytes;device_pool_bytes;bricks_loaded;bricks_evicted;peak_rss_bytes;host_hit_rate;device_hit_rate;frames")
+foreach(backend cpu vulkan)
+  if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+    continue()
+  endif()
+  sylva_render_test(octree_ooc_${backend}
+    ARGS --volume procedural:ml --index octree --brick 16 --frames 12 --orbit --memory-budget 8M --device-budget 4M
+         --backend ${backend} --size 96x72 --quiet -o ${_out}/octree_ooc_${backend}.png
+         --stats-json ${_out}/octree_ooc_${backend}.json
+    FILES ${_out}/octree_ooc_${backend}.png JSON ${_out}/octree_ooc_${backend}.json EXTRA_KEYS ${_oct_keys} ${_ooc_keys}
+    JSON_MIN visible_pixels=1000 bricks_loaded=8 device_pool_bytes=4000000 peak_rss_bytes=1000000
+    JSON_EQUAL bad_bricks=0 errors=0 device_slots=131 memory_budget=8388608)
+endforeach()
+if(SYLVA_HAVE_STORE)  # sylva-store is defined after this file is included
+  add_test(NAME examples.sylva_render.octree_ooc_store_clean COMMAND ${CMAKE_COMMAND} -E rm -rf ${_out}/ml64.store)
+  add_test(NAME examples.sylva_render.octree_ooc_store_build
+           COMMAND sylva-store build procedural:ml:64 -o ${_out}/ml64.store --brick 16)
+  set_tests_properties(examples.sylva_render.octree_ooc_store_clean PROPERTIES FIXTURES_SETUP sylva_ooc_store_clean)
+  set_tests_properties(examples.sylva_render.octree_ooc_store_build PROPERTIES FIXTURES_SETUP sylva_ooc_store
+                       FIXTURES_REQUIRED sylva_ooc_store_clean)
+  sylva_render_test(octree_ooc_store FIXTURE sylva_ooc_store
+    ARGS --volume ${_out}/ml64.store --index octree --frames 10 --memory-budget 1M --device-budget 512K --size 96x72
+         --quiet -o ${_out}/octree_ooc_store.png --stats-json ${_out}/octree_ooc_store.json
+    FILES ${_out}/octree_ooc_store.png JSON ${_out}/octree_ooc_store.json EXTRA_KEYS ${_oct_keys} ${_ooc_keys}
+    JSON_MIN visible_pixels=1000 bricks_loaded=8 JSON_EQUAL bad_bricks=0 errors=0 bricks=73)
+endif()
+sylva_render_test(octree_ooc_without_octree RC 2 ERR "--frames, --frames-out, --orbit and --feedback need"
+  ARGS --volume procedural:ml --frames 4 -o ${_out}/x.png)
+sylva_render_test(octree_ooc_budget_too_small RC 1 ERR "holds no brick"
+  ARGS --volume procedural:ml --index octree --brick 16 --frames 2 --device-budget 1K -o ${_out}/x.png)

@@ -2,7 +2,8 @@
 // (sylva/octree/build.hpp) rendered with DVR (sylva/shared/octree_dvr.h) or the first hit of one
 // --iso value (sylva/shared/octree_iso.h) on the host or through Vulkan; without --lod-pixels
 // through the full-resolution cut (the marcher's image), with it through the cut chosen for the
-// view (sylva/octree/cut.hpp) within --cut-nodes nodes. Header only: volume_scene.cpp, the one
+// view (sylva/octree/cut.hpp) within --cut-nodes nodes; with --frames (or a budget) out of core
+// over the in-core tree as the brick source (ooc_scene.hpp). Header only: volume_scene.cpp, the one
 // includer, dispatches here.
 #ifndef SYLVA_RENDER_OCTREE_SCENE_HPP
 #define SYLVA_RENDER_OCTREE_SCENE_HPP
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include <sylva/core/executor.hpp>
+#include <sylva/octree/brick_source.hpp>
 #include <sylva/octree/build.hpp>
 #include <sylva/octree/cut.hpp>
 #include <sylva/octree/encode.hpp>
@@ -23,6 +25,7 @@
 #include <sylva/vulkan/octree_volume.hpp>
 #endif
 
+#include "ooc_scene.hpp"
 #include "options.hpp"
 #include "stats.hpp"
 #include "volume_scene.hpp"
@@ -36,6 +39,14 @@ inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid&
     octree::Config cfg;
     cfg.brick_size = o.brick;
     octree::Tree tree = octree::build(g, pool, cfg);
+    if (o.out_of_core()) {  // the in-core tree as the brick source of the out-of-core path
+        s.build_ms = tree.build_ms;
+        s.elements = g.values.size();
+        octree::TreeBrickSource src(std::move(tree));
+        int rc = run_octree_ooc(o, src, pool, s);
+        warn_if_nothing_visible(o, s, g, vp, std::cerr);
+        return rc;
+    }
     auto t0 = std::chrono::steady_clock::now();
     std::vector<std::uint32_t> words = octree::encode(tree);
     octree::Cut cut;

@@ -1,6 +1,8 @@
 #include "options.hpp"
 
+#include <cctype>
 #include <cstdlib>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
@@ -23,6 +25,9 @@ const char* usage() {
            "isosurfaces:        [--index implicit-kd|dda] [--iso V1[,V2,V3,V4]] [--ikd-bricks N]\n"
            "octree (volumes):   [--index octree] [--brick 16|32] [--lod-pixels P] [--cut-nodes N] [--mode dvr|iso]\n"
            "octree (particles): --particles FILE --index octree, or --count N --index octree (the galaxy)\n"
+           "out of core:        [--index octree] [--memory-budget SIZE] [--device-budget SIZE] [--frames N]\n"
+           "                    [--frames-out DIR] [--orbit] [--feedback on|off]; --volume STORE (a brick\n"
+           "                    store directory made by sylva-store build) always renders out of core\n"
            "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
            "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
@@ -91,6 +96,20 @@ std::vector<float> parse_isos(const std::string& v) {
     if (out.empty() || out.size() > 4) throw std::invalid_argument("--iso: '" + v + "' is not 1 to 4 values V1,V2,...");
     return out;
 }
+std::size_t parse_bytes(const std::string& opt, const std::string& v) {
+    std::string digits = v;
+    double scale = 1.0;
+    if (!v.empty()) {
+        char u = static_cast<char>(std::toupper(static_cast<unsigned char>(v.back())));
+        if (u == 'K' || u == 'M' || u == 'G') {
+            scale = u == 'K' ? 1024.0 : u == 'M' ? 1048576.0 : 1073741824.0;
+            digits.pop_back();
+        }
+    }
+    double x = number(opt, digits, 1, 1e15) * scale;
+    if (x > 1e15) throw std::invalid_argument(opt + ": '" + v + "' is too large");
+    return static_cast<std::size_t>(x);
+}
 sylva::volume::ValueRange parse_range(const std::string& v) {
     try {
         return sylva::volume::ValueRange::parse(v);
@@ -98,10 +117,15 @@ sylva::volume::ValueRange parse_range(const std::string& v) {
         throw std::invalid_argument(std::string("--range: ") + e.what());
     }
 }
+bool is_directory_with(const std::string& dir, const char* file) {
+    std::error_code ec;
+    return !dir.empty() && std::filesystem::is_directory(dir, ec) && std::filesystem::exists(std::filesystem::path(dir) / file, ec);
+}
 }  // namespace
 
 Options parse(int argc, char** argv) {
     Options o;
+    bool ooc_given = false;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto value = [&]() -> std::string {
@@ -119,6 +143,12 @@ Options parse(int argc, char** argv) {
         else if (a == "--boxes") o.boxes = value();
         else if (a == "--tf-sequence") o.tf_sequence = parse_list(a, value());
         else if (a == "--repeat") o.repeat = static_cast<std::uint32_t>(number(a, value(), 1, 1000));
+        else if (a == "--memory-budget") o.memory_budget = parse_bytes(a, value()), ooc_given = true;
+        else if (a == "--device-budget") o.device_budget = parse_bytes(a, value()), ooc_given = true;
+        else if (a == "--frames") o.frames = static_cast<std::uint32_t>(number(a, value(), 1, 100000)), ooc_given = true;
+        else if (a == "--frames-out") o.frames_out = value(), ooc_given = true;
+        else if (a == "--orbit") o.orbit = true, ooc_given = true;
+        else if (a == "--feedback") o.feedback = one_of(a, value(), {"on", "off"}) == "on", ooc_given = true;
         else if (a == "--mode") o.mode = one_of(a, value(), {"dvr", "iso"});
         else if (a == "--dvr") o.dvr = one_of(a, value(), {"single", "multi"});
         else if (a == "--tf") o.tf = value();
@@ -174,6 +204,13 @@ Options parse(int argc, char** argv) {
             for (int i = 1; i < argc; ++i)
                 if (std::string(argv[i]) == opt) throw std::invalid_argument(std::string(opt) + " needs --index octree");
     }
+    if (ooc_given && !(o.octree_index() && o.volume_input()))
+        throw std::invalid_argument("--memory-budget, --device-budget, --frames, --frames-out, --orbit and --feedback need "
+                                    "--index octree and a volume (out-of-core rendering)");
+    if (ooc_given && o.frames == 0) o.frames = 32;
+    if (o.octree_index() && o.volume_input() && o.frames == 0 && is_directory_with(o.volume, "data.mdb")) o.frames = 32;
+    if (!o.octree_index() && is_directory_with(o.volume, "data.mdb"))
+        throw std::invalid_argument("--volume " + o.volume + " is a brick store: it renders with --index octree");
     if (o.octree_index() && o.dvr == "multi")
         throw std::invalid_argument("--dvr multi is BIH-DVR's; --index octree samples the marcher's lattice");
     if (o.ikd_index() && o.mode == "dvr")

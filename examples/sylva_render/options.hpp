@@ -65,6 +65,15 @@ struct Options {
     std::string boxes;               ///< --boxes FILE: the rendering with the kd-tree's leaf boxes drawn over it
     std::vector<std::string> tf_sequence;  ///< --tf-sequence F1,F2,...: replay TFs, rebuild the kd-tree for each
     std::uint32_t repeat = 1;        ///< --repeat N: render a volume N times, report the fastest frame
+    // Out of core (--index octree; issue 13, ooc_scene.hpp): progressive frames through the
+    // host cache, the loader and the device pool; a brick store (--volume DIR made by
+    // sylva-store build) always renders this way.
+    std::size_t memory_budget = std::size_t{256} << 20;  ///< --memory-budget SIZE: host brick cache (K, M, G suffixes)
+    std::size_t device_budget = std::size_t{128} << 20;  ///< --device-budget SIZE: device brick pool
+    std::uint32_t frames = 0;        ///< --frames N: progressive frames (0: in core; a store: 32)
+    std::string frames_out;          ///< --frames-out DIR: every frame as DIR/frame_NNNN.png
+    bool orbit = false;              ///< --orbit: the view turns once about the vertical axis over the frames
+    bool feedback = true;            ///< --feedback on|off: refine only nodes rays reached the frame before
 
     /// True for the kd-tree indices (--index kd-vidal|kd-binned).
     [[nodiscard]] bool kd_index() const { return index == "kd-vidal" || index == "kd-binned"; }
@@ -73,6 +82,8 @@ struct Options {
     /// True for the exact isosurface indices (--index implicit-kd|dda).
     [[nodiscard]] bool ikd_index() const { return index == "implicit-kd" || index == "dda"; }
 
+    /// True for the out-of-core octree path (--frames, a budget or --frames-out given, or a store).
+    [[nodiscard]] bool out_of_core() const { return octree_index() && frames > 0; }
     /// True when the volume is one of the procedural ones (no file).
     [[nodiscard]] bool procedural_volume() const { return volume.empty() || volume.rfind("procedural", 0) == 0; }
 

@@ -75,6 +75,24 @@ struct Stats {
         float lod_pixels = 0.0f;  ///< 0: the full-resolution cut
     } octree;
 
+    /// Out-of-core octree runs (--frames, a budget, or a brick store; ooc_scene.hpp).
+    struct OocRows {
+        bool present = false, feedback = true;
+        std::size_t memory_budget = 0, device_budget = 0, host_cache_bytes = 0, host_cache_peak_bytes = 0;
+        std::size_t device_pool_bytes = 0, peak_rss_bytes = 0;
+        std::uint32_t device_slots = 0;
+        std::uint64_t bricks_loaded = 0, bricks_evicted = 0, host_evicted = 0, device_evicted = 0, uploads = 0;
+        std::uint64_t bad_bricks = 0, cancelled = 0;
+        double host_hit_rate = 0, device_hit_rate = 0;
+        /// One progressive frame.
+        struct FrameRow {
+            double ms = 0, update_ms = 0, render_ms = 0;
+            std::uint64_t loaded = 0;
+            std::uint32_t uploads = 0, requests = 0, cut_nodes = 0, cut_deepest = 0;
+        };
+        std::vector<FrameRow> frames;
+    } ooc;
+
     /// Element octree runs over particles (--particles or --count with --index octree).
     struct ElementOctreeRows {
         bool present = false;
@@ -137,12 +155,30 @@ struct Stats {
                << (octree.lod_pixels > 0.0f ? " (--lod-pixels " + std::to_string(octree.lod_pixels) + ")"
                                             : std::string(" (full resolution)"))
                << "\n";
+        if (ooc.present) print_ooc(os);
         if (elements_octree.present)
             os << "element octree   " << elements_octree.octree_nodes << " nodes, " << elements_octree.levels
                << " lattice levels, " << elements_octree.references << " references ("
                << elements_octree.references_per_element << " per particle); index " << elements_octree.index_bytes
                << " B, records " << elements_octree.record_bytes << " B\n";
         if (errors) os << "ERRORS           " << errors << " rays ended on a corrupted encoding\n";
+    }
+
+    /// The out-of-core rows: budgets, caches, loads, the frames.
+    void print_ooc(std::ostream& os) const {
+        auto mb = [](std::size_t b) { return static_cast<double>(b) / (1024.0 * 1024.0); };
+        double worst = 0, sum = 0;
+        for (const OocRows::FrameRow& f : ooc.frames) worst = std::max(worst, f.ms), sum += f.ms;
+        os << "out of core      " << ooc.frames.size() << " frames, mean " << (ooc.frames.empty() ? 0.0 : sum / double(ooc.frames.size()))
+           << " ms, max " << worst << " ms; feedback " << (ooc.feedback ? "on" : "off") << "\n"
+           << "  host cache     " << mb(ooc.host_cache_bytes) << " MB now, peak " << mb(ooc.host_cache_peak_bytes) << " of "
+           << mb(ooc.memory_budget) << " MB; hit rate " << ooc.host_hit_rate << "\n"
+           << "  device pool    " << mb(ooc.device_pool_bytes) << " MB (" << ooc.device_slots << " slots) of "
+           << mb(ooc.device_budget) << " MB; hit rate " << ooc.device_hit_rate << "\n"
+           << "  bricks         " << ooc.bricks_loaded << " loaded, " << ooc.uploads << " uploaded, " << ooc.bricks_evicted
+           << " evicted (host " << ooc.host_evicted << ", device " << ooc.device_evicted << "), " << ooc.cancelled
+           << " requests cancelled, " << ooc.bad_bricks << " bad\n"
+           << "  peak RSS       " << mb(ooc.peak_rss_bytes) << " MB\n";
     }
 
     /// Kinkelin Table 3's rows for the volume that was built.
@@ -240,6 +276,7 @@ struct Stats {
                 << ", \"index_bytes\": " << octree.index_bytes << ", \"brick_bytes\": " << octree.brick_bytes
                 << ", \"cut_nodes\": " << octree.cut_nodes << ", \"cut_leaves\": " << octree.cut_leaves
                 << ", \"cut_deepest_level\": " << octree.cut_deepest << ", \"lod_pixels\": " << octree.lod_pixels;
+        if (ooc.present) write_ooc_json(out);
         if (elements_octree.present)
             out << ", \"octree_nodes\": " << elements_octree.octree_nodes << ", \"octree_levels\": " << elements_octree.levels
                 << ", \"references\": " << elements_octree.references
@@ -255,6 +292,26 @@ struct Stats {
         }
         out << "}\n";
         if (!out) throw sylva::Error("cannot write stats file " + path);
+    }
+
+    void write_ooc_json(std::ostream& out) const {
+        out << ", \"memory_budget\": " << ooc.memory_budget << ", \"device_budget\": " << ooc.device_budget
+            << ", \"host_cache_bytes\": " << ooc.host_cache_bytes << ", \"host_cache_peak_bytes\": " << ooc.host_cache_peak_bytes
+            << ", \"device_pool_bytes\": " << ooc.device_pool_bytes << ", \"device_slots\": " << ooc.device_slots
+            << ", \"bricks_loaded\": " << ooc.bricks_loaded << ", \"bricks_evicted\": " << ooc.bricks_evicted
+            << ", \"host_evicted\": " << ooc.host_evicted << ", \"device_evicted\": " << ooc.device_evicted
+            << ", \"uploads\": " << ooc.uploads << ", \"bad_bricks\": " << ooc.bad_bricks
+            << ", \"requests_cancelled\": " << ooc.cancelled << ", \"host_hit_rate\": " << ooc.host_hit_rate
+            << ", \"device_hit_rate\": " << ooc.device_hit_rate << ", \"peak_rss_bytes\": " << ooc.peak_rss_bytes
+            << ", \"feedback\": " << (ooc.feedback ? "true" : "false") << ", \"frames\": [";
+        for (std::size_t i = 0; i < ooc.frames.size(); ++i) {
+            const OocRows::FrameRow& f = ooc.frames[i];
+            out << (i ? ", " : "") << "{\"ms\": " << f.ms << ", \"update_ms\": " << f.update_ms
+                << ", \"render_ms\": " << f.render_ms << ", \"bricks_loaded\": " << f.loaded << ", \"uploads\": " << f.uploads
+                << ", \"requests\": " << f.requests << ", \"cut_nodes\": " << f.cut_nodes
+                << ", \"cut_deepest_level\": " << f.cut_deepest << "}";
+        }
+        out << "]";
     }
 
     void write_kd_json(std::ostream& out) const {

@@ -229,6 +229,7 @@ int run_volume(const Options& o) {
     s.backend = o.backend;
     s.index = o.index;
     s.repeat = o.repeat;
+    if (o.octree_index() && is_store_path(o.volume)) return run_store_volume(o, s);  // out of core from disk
     ThreadPool pool(o.threads);
     volume::DensityGrid g = load_grid(o, pool, s);
     VolumeRenderParams p = render_params(o, g);

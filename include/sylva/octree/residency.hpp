@@ -21,10 +21,13 @@
 // set stays within max_nodes and the pinned bricks within the pool's slots. A node is refined
 // only when every child that is not terminal (empty under the TF / the iso value) has its brick
 // in the device pool, uploading from the host cache what is there (at most
-// max_uploads_per_frame bricks a frame: section 7's "texture upload budget"); the bricks still
+// max_uploads_per_frame bricks a frame: section 7's "texture upload budget"); the whole working
+// set, inner nodes included, stays in the pool (section 5: "all nodes in the current working set
+// are present both in the CPU and GPU cache"), so the next frame can refine it again without
+// uploads; the bricks still
 // on disk are requested from the loader (priority: the node's projected voxel size) and the
 // node is drawn meanwhile. No frame waits for I/O, except the root's brick, read once by the
-// constructor, which keeps it in the pool for good (one slot: every frame can draw something).
+// constructor; the root's brick never leaves the pool (every frame can draw something).
 // With visibility feedback (section 6) a node is refined only when a ray reached it
 // in the previous frame (a cut leaf: the renderer's feedback word; an inner node: any of its
 // children; a node below the previous cut: its ancestor cut leaf's); the first frame, with no
@@ -329,6 +332,7 @@ private:
         add(0u);
         if (std::optional<std::uint32_t> s = slots_.find(key_of(0))) slots_.pin(*s);  // the root stays, always
         std::vector<std::uint32_t> tmp(header_.brick_words);
+        std::uint64_t promised = 0;  // bricks of waiting nodes not resident yet
         while (!open.empty()) {
             auto [size, n] = open.top();
             if (!(size > cfg_.lod_pixels)) break;
@@ -346,16 +350,19 @@ private:
             if (std::uint64_t{cut.nodes} + kids > cfg_.max_nodes) break;  // the node budget
             std::uint32_t need = 0;
             for (std::uint32_t k = 0; k < kids; ++k) need += needs_brick(first + k, terminal) ? 1u : 0u;
-            if (slots_.pinned_count() + need > slots_.slots()) break;  // the device budget
-            bool ready = true;
+            // The device budget, counting the bricks already promised to waiting nodes: no more
+            // is requested than the pool could take (requests beyond it would only churn the
+            // host cache).
+            if (std::uint64_t{slots_.pinned_count()} + promised + need > slots_.slots()) break;
+            std::uint32_t missing = 0;
             for (std::uint32_t k = 0; k < kids; ++k)
-                if (needs_brick(first + k, terminal)) ready = make_resident(first + k, size, tmp) && ready;
-            if (!ready) {
+                if (needs_brick(first + k, terminal) && !make_resident(first + k, size, tmp)) ++missing;
+            if (missing > 0) {
                 ++frame_.waiting;
+                promised += missing;
                 continue;  // drawn meanwhile; its resident children stay pinned this frame
             }
-            cut.state[n] = CutState::Inner;
-            if (std::optional<std::uint32_t> s = slots_.find(key_of(n)); s && n != 0u) slots_.unpin(*s);
+            cut.state[n] = CutState::Inner;  // stays pinned: next frame refines it again from these bricks
             for (std::uint32_t k = 0; k < kids; ++k) add(first + k);
         }
         for (std::uint32_t n = 0; n < header_.node_count; ++n)

@@ -1,0 +1,268 @@
+// sylva-residency-bench: the out-of-core bricked octree (issue 13; sylva/octree/residency.hpp)
+// over a scripted orbit. Per frame: time (refinement + render), bricks loaded, uploads; over the
+// run: median and max frame time (no frame waits for I/O: a frame over 2x the median is
+// counted), host and device cache hit rates, peak RSS against the budgets. Then the last view
+// is held until nothing more arrives, and its image is compared (PSNR) with the same view
+// rendered with budgets large enough for the whole cut.
+//
+//   sylva-residency-bench [--source tree|store] [--volume procedural:ml:N | STORE] [--frames 60]
+//                         [--memory-budget 256M] [--device-budget 128M] [--size 320x240]
+//                         [--brick 16|32] [--lod-pixels 1] [--feedback on|off] [--threads T]
+//                         [--json FILE] [--quick]
+//
+// --source tree builds the octree in core (TreeBrickSource: the RSS then includes the whole
+// tree, so only the store's RSS measures the budgets); --source store reads a brick store made
+// by sylva-store build (needs sylva::store). Records {case, impl, metric, value, unit} through
+// bench::Report.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <sylva/core/executor.hpp>
+#include <sylva/octree/brick_source.hpp>
+#include <sylva/octree/build.hpp>
+#include <sylva/octree/residency.hpp>
+#include <sylva/render/octree_volume.hpp>
+#include <sylva/volume/procedural.hpp>
+#include <sylva/volume/transfer_function.hpp>
+#ifdef SYLVA_RESIDENCY_BENCH_STORE
+#include <sylva/store/store.hpp>
+#endif
+
+#include "bench.hpp"
+
+using namespace sylva;
+
+namespace {
+
+struct Args {
+    std::string source = "tree", volume = "procedural:ml:256", json;
+    std::uint32_t frames = 60, width = 320, height = 240, brick = 32, threads = 0;
+    std::size_t memory_budget = std::size_t{256} << 20, device_budget = std::size_t{128} << 20;
+    float lod_pixels = 1.0f;
+    bool feedback = true;
+};
+
+std::size_t bytes_arg(const std::string& v) {
+    double scale = 1.0;
+    std::string d = v;
+    char u = d.empty() ? '0' : static_cast<char>(std::toupper(static_cast<unsigned char>(d.back())));
+    if (u == 'K' || u == 'M' || u == 'G') {
+        scale = u == 'K' ? 1024.0 : u == 'M' ? 1048576.0 : 1073741824.0;
+        d.pop_back();
+    }
+    return static_cast<std::size_t>(std::stod(d) * scale);
+}
+
+Args parse(int argc, char** argv) {
+    Args a;
+    for (int i = 1; i < argc; ++i) {
+        std::string k = argv[i];
+        auto v = [&]() -> std::string {
+            if (i + 1 >= argc) throw std::invalid_argument(k + " needs a value");
+            return argv[++i];
+        };
+        if (k == "--source") a.source = v();
+        else if (k == "--volume") a.volume = v();
+        else if (k == "--frames") a.frames = static_cast<std::uint32_t>(std::stoul(v()));
+        else if (k == "--memory-budget") a.memory_budget = bytes_arg(v());
+        else if (k == "--device-budget") a.device_budget = bytes_arg(v());
+        else if (k == "--brick") a.brick = static_cast<std::uint32_t>(std::stoul(v()));
+        else if (k == "--lod-pixels") a.lod_pixels = std::stof(v());
+        else if (k == "--feedback") a.feedback = v() == "on";
+        else if (k == "--threads") a.threads = static_cast<std::uint32_t>(std::stoul(v()));
+        else if (k == "--json") a.json = v();
+        else if (k == "--size") {
+            std::string s = v();
+            auto x = s.find('x');
+            if (x == std::string::npos) throw std::invalid_argument("--size WxH");
+            a.width = static_cast<std::uint32_t>(std::stoul(s.substr(0, x)));
+            a.height = static_cast<std::uint32_t>(std::stoul(s.substr(x + 1)));
+        } else if (k == "--quick") {
+            a.volume = "procedural:ml:64", a.frames = 12, a.width = 96, a.height = 72, a.brick = 16;
+            a.memory_budget = 4 << 20, a.device_budget = 2 << 20;
+        } else throw std::invalid_argument("unknown option " + k);
+    }
+    if (a.source != "tree" && a.source != "store") throw std::invalid_argument("--source tree|store");
+    if (a.frames < 1 || a.width < 1 || a.height < 1) throw std::invalid_argument("--frames and --size must be >= 1");
+    return a;
+}
+
+std::size_t peak_rss() {
+    struct rusage u {};
+    getrusage(RUSAGE_SELF, &u);
+    return static_cast<std::size_t>(u.ru_maxrss) * 1024u;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+double psnr(const Frame& a, const Frame& b) {
+    double se = 0.0;
+    for (std::size_t i = 0; i < a.rgba.size(); ++i)
+        for (int c = 0; c < 4; ++c) {
+            double d = std::clamp(double(a.rgba[i][c]), 0.0, 1.0) - std::clamp(double(b.rgba[i][c]), 0.0, 1.0);
+            se += d * d;
+        }
+    double mse = se / double(std::max<std::size_t>(a.rgba.size() * 4, 1));
+    return mse > 0.0 ? 10.0 * std::log10(1.0 / mse) : 999.0;
+}
+
+VolumeRenderParams view_params(const Args& a, const shared::SylvaOctHeader& h, std::uint32_t frame) {
+    VolumeRenderParams p;
+    p.width = a.width;
+    p.height = a.height;
+    Aabb box{vec3(0.0f), vec3(h.dims) * h.spacing};
+    float ang = 6.2831853f * float(frame) / float(a.frames);
+    vec3 from(0.4f * std::cos(ang) + std::sin(ang), 0.3f, -0.4f * std::sin(ang) + std::cos(ang));
+    p.camera = Camera::framing(box, from).frame(a.width, a.height);
+    p.tf = volume::TransferFunction::ct_bone_tissue().packed_rgba8();
+    vec3 e = box.extent();
+    p.dt = std::max(e.x, std::max(e.y, e.z)) / 1024.0f;
+    p.unit = std::min(h.spacing.x, std::min(h.spacing.y, h.spacing.z));
+    p.shading = false;
+    return p;
+}
+
+/// Holds the view of frame `frame` until nothing is requested, uploaded or waiting (at most
+/// `max` frames, the loader drained between frames); the last image.
+template <class Res>
+Frame settle(Res& res, octree::HostBrickPool& pool, const VolumeRenderParams& p, const OctreeTerminal& term, ThreadPool& exec,
+             int max, int& frames) {
+    Frame f;
+    for (frames = 1; frames <= max; ++frames) {
+        const octree::ResidencyFrame& r = res.update(octree::cut_view(p.camera, p.width, p.height), term);
+        f = render_octree_dvr_cpu(OctreeView{r.words, pool.words, 0xFFFFFFFFu, res.feedback()}, p, exec);
+        res.wait_loads();
+        if (frames > 2 && r.requests == 0 && r.uploads == 0 && r.waiting == 0) break;
+    }
+    return f;
+}
+
+template <class S>
+int run(const Args& a, const S& src, const std::string& case_name, bench::Report& rep) {
+    ThreadPool exec(a.threads);
+    octree::ResidencyConfig cfg;
+    cfg.host_budget_bytes = a.memory_budget;
+    cfg.device_budget_bytes = a.device_budget;
+    cfg.lod_pixels = a.lod_pixels;
+    cfg.visibility_feedback = a.feedback;
+    cfg.report_bad_bricks = true;
+    std::span<const std::uint32_t> index = src.index();
+    std::size_t rss_before = peak_rss();
+    octree::HostBrickPool pool(octree::pool_slots(index, cfg), index[8]);
+    octree::Residency res(src, pool, cfg);
+    VolumeRenderParams p = view_params(a, res.header(), 0);
+    OctreeTerminal term(index, p, false);
+    std::vector<double> ms;
+    Frame f;
+    std::uint64_t loaded_max = 0;
+    std::printf("%s: %u frames of %ux%u, budgets host %.0f MB, device %.0f MB (%u slots of %zu bytes)\n", case_name.c_str(),
+                a.frames, a.width, a.height, double(a.memory_budget) / 1048576.0, double(a.device_budget) / 1048576.0, res.slots(),
+                res.brick_bytes());
+    for (std::uint32_t i = 0; i < a.frames; ++i) {
+        p.camera = view_params(a, res.header(), i).camera;
+        auto t0 = std::chrono::steady_clock::now();
+        const octree::ResidencyFrame& r = res.update(octree::cut_view(p.camera, p.width, p.height), term);
+        f = render_octree_dvr_cpu(OctreeView{r.words, pool.words, 0xFFFFFFFFu, res.feedback()}, p, exec);
+        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        loaded_max = std::max(loaded_max, r.loaded);
+        std::printf("  frame %3u  %8.2f ms (update %.2f)  loaded %5llu  uploads %4u  requests %5u  cut %6u nodes, deepest %u\n", i,
+                    ms.back(), r.ms, static_cast<unsigned long long>(r.loaded), r.uploads, r.requests, r.cut.nodes, r.cut.deepest);
+        rep.add(case_name, "orbit", "frame_ms_" + std::to_string(i), ms.back(), "ms");
+        rep.add(case_name, "orbit", "bricks_loaded_" + std::to_string(i), double(r.loaded), "bricks");
+    }
+    double med = median(ms), worst = *std::max_element(ms.begin(), ms.end());
+    std::size_t stalls = std::size_t(std::count_if(ms.begin(), ms.end(), [&](double m) { return m > 2.0 * med; }));
+    octree::HostCacheCounters hc = res.host_counters();
+    const octree::ResidencyCounters& c = res.counters();
+    double host_hit = hc.hits + hc.misses ? double(hc.hits) / double(hc.hits + hc.misses) : 0.0;
+    double dev_hit = c.device_hits + c.device_misses ? double(c.device_hits) / double(c.device_hits + c.device_misses) : 0.0;
+    std::size_t rss = peak_rss();
+    std::size_t image = std::size_t{a.width} * a.height * (16 + 4);
+    double bound = 1.25 * double(a.memory_budget + a.device_budget) + double(image);
+    // Hold the last view until it has converged, then the same view with room for everything.
+    int settle_frames = 0;
+    Frame held = settle(res, pool, p, term, exec, 400, settle_frames);
+    octree::ResidencyConfig big = cfg;
+    big.host_budget_bytes = big.device_budget_bytes = std::size_t{index[7]} * index[8] * 4 + 4096;
+    octree::HostBrickPool big_pool(octree::pool_slots(index, big), index[8]);
+    octree::Residency ref(src, big_pool, big);
+    int ref_frames = 0;
+    Frame whole = settle(ref, big_pool, p, term, exec, 400, ref_frames);
+    double q = psnr(held, whole);
+    std::printf("frame time median %.2f ms, max %.2f ms (%.2fx), frames over 2x the median %zu\n", med, worst, worst / med, stalls);
+    std::printf("host cache hit rate %.3f, device pool hit rate %.3f; loaded %llu, uploads %llu, evicted host %llu device %llu\n",
+                host_hit, dev_hit, static_cast<unsigned long long>(res.loader_counters().loaded),
+                static_cast<unsigned long long>(c.uploads), static_cast<unsigned long long>(hc.evicted),
+                static_cast<unsigned long long>(c.device_evicted));
+    std::printf("peak RSS %.1f MB (before the residency %.1f MB); 1.25 x budgets + image = %.1f MB\n", double(rss) / 1048576.0,
+                double(rss_before) / 1048576.0, bound / 1048576.0);
+    std::printf("held view converged in %d frames; PSNR %.2f dB against budgets for the whole cut (%d frames)\n", settle_frames, q,
+                ref_frames);
+    rep.add(case_name, "orbit", "frame_ms_median", med, "ms");
+    rep.add(case_name, "orbit", "frame_ms_max", worst, "ms");
+    rep.add(case_name, "orbit", "frame_max_over_median", worst / med, "x");
+    rep.add(case_name, "orbit", "frames_over_2x_median", double(stalls), "frames");
+    rep.add(case_name, "orbit", "bricks_loaded_max_per_frame", double(loaded_max), "bricks");
+    rep.add(case_name, "orbit", "bricks_loaded", double(res.loader_counters().loaded), "bricks");
+    rep.add(case_name, "orbit", "host_hit_rate", host_hit, "ratio");
+    rep.add(case_name, "orbit", "device_hit_rate", dev_hit, "ratio");
+    rep.add(case_name, "orbit", "host_evicted", double(hc.evicted), "bricks");
+    rep.add(case_name, "orbit", "device_evicted", double(c.device_evicted), "bricks");
+    rep.add(case_name, "orbit", "host_cache_peak_bytes", double(hc.peak_bytes), "bytes");
+    rep.add(case_name, "orbit", "device_pool_bytes", double(res.device_pool_bytes()), "bytes");
+    rep.add(case_name, "orbit", "peak_rss_bytes", double(rss), "bytes");
+    rep.add(case_name, "orbit", "peak_rss_before_bytes", double(rss_before), "bytes");
+    rep.add(case_name, "orbit", "rss_bound_bytes", bound, "bytes");
+    rep.add(case_name, "held", "psnr_vs_whole_cut", q, "dB");
+    rep.add(case_name, "held", "settle_frames", double(settle_frames), "frames");
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Args a;
+    try {
+        a = parse(argc, argv);
+    } catch (const std::exception& e) {
+        std::cerr << "sylva-residency-bench: " << e.what() << "\n";
+        return 2;
+    }
+    try {
+        bench::Report rep;
+        if (a.source == "tree") {
+            std::string n = a.volume.rfind("procedural:ml:", 0) == 0 ? a.volume.substr(14) : "";
+            if (n.empty()) throw std::invalid_argument("--source tree takes --volume procedural:ml:N");
+            std::uint32_t side = static_cast<std::uint32_t>(std::stoul(n));
+            ThreadPool pool(a.threads);
+            octree::Tree t = octree::build(volume::marschner_lobb({side, side, side}), pool, {a.brick, 2});
+            octree::TreeBrickSource src(std::move(t));
+            run(a, src, "tree-ml" + n, rep);
+        } else {
+#ifdef SYLVA_RESIDENCY_BENCH_STORE
+            store::Store st = store::Store::open(a.volume);
+            run(a, st, "store", rep);
+#else
+            throw std::invalid_argument("--source store: built without sylva::store");
+#endif
+        }
+        if (!a.json.empty()) rep.write_json(a.json);
+    } catch (const std::exception& e) {
+        std::cerr << "sylva-residency-bench: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}
