@@ -50,7 +50,7 @@ void main() {
     uint status;
     vec4 c = sylva_octe_render_particles(0u, pc.word_count, 0u, pc.records, eye, d, 0.0f, sylva_inf(), pc.alpha_stop,
                                          steps, status);
-    bool cut_short = status == SYLVA_ITER_RUNNING && !(c.w >= pc.alpha_stop);
+    bool cut_short = status == SYLVA_ITER_RUNNING && c.w < pc.alpha_stop;
     uint at = (px.y * pc.width + px.x) * 5u;
     pixels[at] = floatBitsToUint(c.x);
     pixels[at + 1u] = floatBitsToUint(c.y);

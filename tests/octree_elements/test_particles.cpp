@@ -88,7 +88,7 @@ Frame brute_force_frame(const std::vector<std::uint32_t>& records, const CameraF
     return f;
 }
 
-TEST_CASE("octree particles: the image equals brute force exactly, and the BIH's closely, on a galaxy and RBFs",
+TEST_CASE("octree particles: the image equals brute force exactly, and the BIH's closely, on spheres, a galaxy and RBFs",
           "[particles]") {
     ThreadPool pool(2);
     auto galaxy = io::synthetic_galaxy(20000);
@@ -131,6 +131,7 @@ TEST_CASE("octree particles: the image equals brute force exactly, and the BIH's
                       << ob.psnr << " dB, BIH-exact " << be.psnr << " dB, octree-exact " << oe.psnr << " dB");
         }
     };
+    check(testing::random_spheres(3000, 72), "spheres");
     check(galaxy, "galaxy");
     check(rbfs, "rbfs");
     // The dark-matter halo of ../shared/data (32314 particles), when present.
