@@ -11,6 +11,9 @@
 #ifndef SYLVA_STORE_STORE_HPP
 #define SYLVA_STORE_STORE_HPP
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -105,6 +108,17 @@ static_assert(octree::BrickSource<Store>);
 
 namespace detail {
 
+/// Unmaps the pages of a value read through LMDB's map once it has been decoded: the pages stay
+/// in the page cache, but no longer count in the process's resident set (a renderer reading a
+/// store many times its budget would otherwise see its RSS grow with every brick it ever read).
+/// The map is shared and read-only, so a later access faults the same bytes back in.
+inline void release_pages(const MDB_val& v) {
+    static const std::uintptr_t page = std::uintptr_t(::sysconf(_SC_PAGESIZE));
+    auto lo = reinterpret_cast<std::uintptr_t>(v.mv_data) & ~(page - 1u);
+    auto hi = (reinterpret_cast<std::uintptr_t>(v.mv_data) + v.mv_size + page - 1u) & ~(page - 1u);
+    if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_DONTNEED);
+}
+
 /// Throws unless data.mdb holds every page LMDB's meta page says is in use (a truncated file
 /// would make reads through the map fault, SIGBUS, rather than fail).
 inline void check_not_truncated(MDB_env* env, const std::filesystem::path& data, const std::string& where) {
@@ -191,6 +205,7 @@ inline octree::BrickStatus Store::read_brick(std::uint32_t key, std::span<std::u
     MDB_val v;
     if (!lmdb::get(txn, bricks_, lmdb::brick_key(k), v, where())) return octree::BrickStatus::missing;
     DecodeStatus d = decode_brick(lmdb::bytes(v), out);
+    detail::release_pages(v);
     return d == DecodeStatus::ok ? octree::BrickStatus::ok : octree::BrickStatus::corrupt;
 }
 
@@ -216,6 +231,7 @@ inline VerifyReport Store::verify(const std::function<void(std::uint64_t, std::u
         }
         ++expected_seen;
         if (decode_brick(lmdb::bytes(v), words) != DecodeStatus::ok) r.corrupt.push_back(key);
+        detail::release_pages(v);
         if (progress && (r.bricks_checked & 255u) == 0u) progress(r.bricks_checked, stored_);
     }
     mdb_cursor_close(cur);
