@@ -154,7 +154,9 @@ inline std::vector<std::uint32_t> encode_lod(const Lod& lod, const LodConfig& co
 namespace detail {
 
 /// Conservative unorm16 of a density bound: `upper` rounds up, else down; clamped to [0, 1].
+/// NaN (0 * inf: a flat leaf box with an infinite side) gives the widest bound, never culled.
 inline std::uint32_t unorm16_bound(double v, bool upper) {
+    if (std::isnan(v)) return upper ? 65535u : 0u;
     double q = upper ? std::ceil((v + 1e-6) * 65535.0) : std::floor((v - 1e-6) * 65535.0);
     return static_cast<std::uint32_t>(std::clamp(q, 0.0, 65535.0));
 }

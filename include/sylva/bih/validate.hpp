@@ -17,7 +17,8 @@ namespace sylva::bih {
 
 /// Throws sylva::Error naming the first problem: not a BIH, a node count or depth that the
 /// buffer or the stack cannot hold, a child index out of range, a node reached twice (a cycle
-/// or shared subtree), a tree deeper than its header says, a NaN plane, or (range payloads) a
+/// or shared subtree), a tree deeper than its header says, a root box or traversal space that
+/// is not finite (or a root box with lo > hi), a NaN plane, or (range payloads) a
 /// leaf range outside `element_count` when that is non-zero.
 inline void validate(std::span<const std::uint32_t> words, std::uint64_t element_count = 0) {
     using namespace sylva::shared;
@@ -29,6 +30,13 @@ inline void validate(std::span<const std::uint32_t> words, std::uint64_t element
     if (h.valid == 0u)
         throw Error("bih::validate: header inconsistent (node count " + std::to_string(h.node_count) +
                     ", depth " + std::to_string(h.max_depth) + ", " + std::to_string(words.size()) + " words)");
+    // The encoder writes the builder's root box (finite, lo <= hi: it refuses anything else) and
+    // the fixed16 traversal space from it; NaN or infinite words there would turn every decoded
+    // leaf box (sylva_bih_to_world) into NaN.
+    for (int a = 0; a < 3; ++a)
+        if (!std::isfinite(h.root_lo[a]) || !std::isfinite(h.root_hi[a]) || !(h.root_lo[a] <= h.root_hi[a]) ||
+            !std::isfinite(h.space_origin[a]) || !std::isfinite(h.space_scale[a]))
+            throw Error("bih::validate: root box or traversal space is not finite and ordered on axis " + std::to_string(a));
     std::uint32_t kind = (h.flags >> 8) & 255u;
     std::vector<std::uint8_t> seen(h.node_count, 0);
     struct Item { std::uint32_t node, depth; };
