@@ -188,7 +188,7 @@ struct Chunk {
         std::size_t at = 0;      ///< nodes of this chunk that precede the sub-chunk
         std::unique_ptr<Chunk> sub;
     };
-    std::vector<Node> nodes;
+    LargeVector<Node> nodes;
     std::vector<Link> links;
     std::size_t leaves = 0, single_child_nodes = 0;
     std::uint32_t max_depth = 0, max_leaf_elements = 0;
@@ -500,7 +500,7 @@ void assemble(Chunk& root, Tree& t, X& exec) {
     exec.parallel_for(0, list.size(), 1, [&](std::size_t lo, std::size_t hi) {
         for (std::size_t k = lo; k < hi; ++k) {
             copy_chunk(*list[k], out);
-            std::vector<Node>().swap(list[k]->nodes);  // lowers the peak memory
+            LargeVector<Node>().swap(list[k]->nodes);  // lowers the peak memory
         }
     });
 }
@@ -543,11 +543,13 @@ Tree build(std::span<const E> elements, const Config& config, X& exec) {
     t.order.resize(elements.size());
     detail::Chunk root;
     {
-        auto prims = std::make_unique_for_overwrite<detail::Prim[]>(elements.size());
-        auto side = std::make_unique_for_overwrite<std::uint8_t[]>(elements.size());
-        t.bounds = detail::gather_prims(elements, prims.get(), exec);
+        // Scratch from the large-block allocator: default-initialised (no zeroing pass), and
+        // warm memory when an earlier build freed blocks of this size.
+        memory::LargeBuffer<detail::Prim> prims(elements.size());
+        memory::LargeBuffer<std::uint8_t> side(elements.size());
+        t.bounds = detail::gather_prims(elements, prims.data(), exec);
         std::atomic<std::size_t> placed{0};
-        detail::SubtreeBuilder<X> builder(prims.get(), t.order.data(), side.get(), cfg, exec, placed, elements.size());
+        detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, elements.size());
         builder.build(root, 0, elements.size(), t.bounds, 0);
     }
     detail::assemble(root, t, exec);

@@ -514,7 +514,7 @@ public:
     /// Gathers `elements` in the order of `tree` (built over them); spheres in parallel on `exec`.
     /// Throws sylva::Error when the tree's order does not fit the elements.
     template <Executor X>
-    LeafRecords(const Tree& tree, std::span<const E> elements, X& exec) : ids_(tree.order) {
+    LeafRecords(const Tree& tree, std::span<const E> elements, X& exec) : ids_(tree.order.begin(), tree.order.end()) {
         for (std::uint32_t e : ids_)
             if (e >= elements.size())
                 throw Error("bih::LeafRecords: the tree's order refers to element " + std::to_string(e) + " of the " +

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "sylva/core/aabb.hpp"
+#include "sylva/core/memory.hpp"
 
 namespace sylva::bih {
 
@@ -52,9 +53,10 @@ struct BuildStats {
 
 /// A built BIH: nodes[0] is the root; `order` is the permutation of element indices the
 /// leaves refer to; `bounds` is the box of all elements.
+/// Both arrays come from memory::LargeAllocator (huge pages, blocks reused across builds).
 struct Tree {
-    std::vector<Node> nodes;
-    std::vector<std::uint32_t> order;
+    LargeVector<Node> nodes;
+    LargeVector<std::uint32_t> order;
     Aabb bounds;
     BuildStats stats;
 };

@@ -543,7 +543,7 @@ private:
         const Tree& tree;
         std::span<const E> elements;
         std::uint32_t leaf_size;  ///< WideConfig::leaf_size for this tree
-        std::vector<detail::SubtreeFacts> facts;
+        LargeVector<detail::SubtreeFacts> facts;
         /// A leaf's records to fill: from record `record`, the elements order[first, first + count).
         struct LeafJob {
             std::uint32_t record, first, count;
@@ -556,8 +556,8 @@ private:
         template <class X>
         void refit(X& exec) {
             facts.assign(tree.nodes.size(), {});
-            std::vector<std::uint32_t> post = children_first();
-            std::vector<std::uint32_t> leaves;
+            LargeVector<std::uint32_t> post = children_first();
+            LargeVector<std::uint32_t> leaves;
             for (std::uint32_t n : post) {
                 const Node& node = tree.nodes[n];
                 if (!node.leaf()) continue;
@@ -575,9 +575,9 @@ private:
         /// The nodes below the root, each after its children. The builder stores children after
         /// their parent, so the reverse index order is one; other trees get a depth-first walk.
         /// Throws when a link leaves the tree or a node is reached twice (a cycle, a shared child).
-        [[nodiscard]] std::vector<std::uint32_t> children_first() const {
+        [[nodiscard]] LargeVector<std::uint32_t> children_first() const {
             const auto size = static_cast<std::uint32_t>(tree.nodes.size());
-            std::vector<std::uint32_t> parents(size, 0);
+            LargeVector<std::uint32_t> parents(size, 0);
             bool forward = true;  // every child index above its parent's
             for (std::uint32_t n = 0; n < size; ++n)
                 for (std::uint32_t c : children(n)) {
@@ -586,10 +586,10 @@ private:
                         throw Error("bih::WideTree: node " + std::to_string(c) + " is reached twice (not a tree)");
                     forward = forward && c > n;
                 }
-            std::vector<std::uint32_t> order;
+            LargeVector<std::uint32_t> order;
             order.reserve(size);
             if (forward) {  // unreachable nodes (no parent) are left out
-                std::vector<char> reached(size, 0);
+                LargeVector<char> reached(size, 0);
                 reached[0] = 1;
                 for (std::uint32_t n = 0; n < size; ++n)
                     if (reached[n])
@@ -794,9 +794,10 @@ private:
         }
     };
 
-    std::vector<WideNode> nodes_;
-    std::vector<Record> records_;
-    std::vector<std::uint32_t> ids_;
+    // Large arrays from memory::LargeAllocator (huge pages, warm blocks reused across builds).
+    LargeVector<WideNode> nodes_;
+    LargeVector<Record> records_;
+    LargeVector<std::uint32_t> ids_;
     WideStats stats_;
 };
 

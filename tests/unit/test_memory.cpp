@@ -1,0 +1,59 @@
+#include <catch2/catch.hpp>
+
+#include <cstdint>
+#include <numeric>
+
+#include <sylva/core/memory.hpp>
+
+using namespace sylva;
+
+namespace {
+std::uintptr_t address(const void* p) { return reinterpret_cast<std::uintptr_t>(p); }
+}  // namespace
+
+TEST_CASE("large blocks are 2 MiB aligned, cached on free and reused warm", "[memory]") {
+    memory::Config keep = memory::config();
+    memory::configure({.cache_bytes = std::size_t{64} << 20, .huge_pages = true});
+    memory::release_cache();
+    const void* first = nullptr;
+    {
+        LargeVector<float> a(std::size_t{3} << 20);  // 12 MiB
+        first = a.data();
+        CHECK(address(a.data()) % memory::kHugePage == 0);
+        std::iota(a.begin(), a.end(), 0.0f);
+    }
+    memory::Stats s0 = memory::stats();
+    CHECK(s0.cached_bytes == std::size_t{12} << 20);
+    {
+        LargeVector<std::uint32_t> b(std::size_t{5} << 20);  // 20 MiB: too big for the 12 MiB block
+        CHECK(b.data() != first);
+        LargeVector<std::uint32_t> c(std::size_t{2} << 20);  // 8 MiB: fits the cached 12 MiB block
+        CHECK(c.data() == first);
+        CHECK(c[12345] == 0u);  // a vector still value-initialises what it reuses
+    }
+    memory::Stats s1 = memory::stats();
+    CHECK(s1.reuses == s0.reuses + 1);
+    CHECK(s1.cached_bytes == std::size_t{32} << 20);
+    memory::configure({.cache_bytes = 0, .huge_pages = true});  // gives the cache back at once
+    CHECK(memory::stats().cached_bytes == 0);
+    CHECK(memory::stats().mapped_bytes == s1.mapped_bytes - s1.cached_bytes);
+    memory::configure(keep);
+}
+
+TEST_CASE("small blocks come from operator new, 64-byte aligned; buffers do not zero", "[memory]") {
+    LargeVector<char> small(100, 'x');
+    CHECK(address(small.data()) % 64 == 0);
+    CHECK(small[99] == 'x');
+    memory::LargeBuffer<std::uint64_t> buffer(std::size_t{1} << 18);  // 2 MiB, uninitialised
+    CHECK(buffer.size() == std::size_t{1} << 18);
+    CHECK(address(buffer.data()) % memory::kHugePage == 0);
+    buffer.data()[buffer.size() - 1] = 7;
+    CHECK(buffer.data()[buffer.size() - 1] == 7u);
+    memory::LargeBuffer<std::uint8_t> none(0);
+    CHECK(none.data() == nullptr);
+}
+
+TEST_CASE("an absurd size is std::bad_alloc, not a wrapped small block", "[memory]") {
+    memory::LargeAllocator<double> alloc;
+    CHECK_THROWS_AS(alloc.allocate(SIZE_MAX / 4), std::bad_alloc);
+}
