@@ -12,6 +12,7 @@
 // slice by slice), ml1024u16 (Marschner-Lobb quantised to uint16: the 2 GiB volume).
 // Medians of --runs runs. JSON records {case, impl, metric, value, unit} through bench::Report.
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -45,6 +46,13 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// User + system CPU seconds of this process so far.
+double cpu_seconds() {
+    rusage u{};
+    ::getrusage(RUSAGE_SELF, &u);
+    return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
 
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
@@ -329,7 +337,7 @@ void backends_section(const Case& c, const std::vector<std::vector<std::uint32_t
 void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Report& report) {
     for (CodecSetting cs : {CodecSetting{store::Codec::zstd, 1}, CodecSetting{store::Codec::zstd, -3},
                             CodecSetting{store::Codec::lz4, 0}}) {
-        std::vector<double> tb, tdd, tdd_stored, tcold, twarm;
+        std::vector<double> tb, tcpu, tdd, tdd_stored, tcold, twarm;
         store::StreamResult last;
         std::uint64_t file_bytes = 0;
         for (int r = 0; r < o.runs; ++r) {
@@ -341,8 +349,10 @@ void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Rep
             cfg.level = cs.level;
             cfg.memory_bytes = std::uint64_t(2) << 30;
             auto t0 = Clock::now();
+            double c0 = cpu_seconds();
             last = store::build_store(*src, c.name, path, cfg, pool);
             tb.push_back(seconds_since(t0));
+            tcpu.push_back(cpu_seconds() - c0);
             file_bytes = std::filesystem::file_size(path / "data.mdb");
             tdd.push_back(dd_seconds(o.dir, last.source_bytes));
             tdd_stored.push_back(dd_seconds(o.dir, file_bytes));
@@ -361,6 +371,10 @@ void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Rep
         const double n = double(last.info.node_count), mb = double(last.source_bytes) / 1e6;
         report.add(c.name, impl, "build_s", median(tb), "s");
         report.add(c.name, impl, "build_MB_per_s_voxels", mb / median(tb), "MB/s");
+        // CPU seconds of the build (all threads): on a machine whose pool.concurrency() cores are
+        // free, a CPU-bound build takes about cpu / cores (the rows above are wall clock).
+        report.add(c.name, impl, "build_cpu_s", median(tcpu), "s");
+        report.add(c.name, impl, "build_cpu_s_per_core", median(tcpu) / double(pool.concurrency()), "s");
         report.add(c.name, impl, "build_bricks_per_s", n / median(tb), "bricks/s");
         report.add(c.name, impl, "dd_MB_per_s_same_bytes", mb / median(tdd), "MB/s");
         report.add(c.name, impl, "build_vs_dd_voxel_bytes", median(tdd) / median(tb), "x");

@@ -125,8 +125,11 @@ inline void encode_brick(std::span<const std::uint32_t> words, Codec codec, int 
     std::size_t bound = codec == Codec::zstd  ? ZSTD_compressBound(raw)
                         : codec == Codec::lz4 ? std::size_t(LZ4_compressBound(int(raw)))
                                               : raw;
-    out.resize(kBrickHeaderBytes + bound);
-    std::byte* payload = out.data() + kBrickHeaderBytes;
+    // Compress into a reused buffer, then copy out only the bytes made: `out` is neither
+    // zero-filled to the bound nor left holding it as capacity.
+    thread_local std::vector<std::byte> scratch;
+    if (scratch.size() < kBrickHeaderBytes + bound) scratch.resize(kBrickHeaderBytes + bound);
+    std::byte* payload = scratch.data() + kBrickHeaderBytes;
     std::size_t size = raw;
     if (codec == Codec::zstd) {
         size = ZSTD_compressCCtx(detail::zstd_contexts().c, payload, bound, src, raw, level);
@@ -138,7 +141,7 @@ inline void encode_brick(std::span<const std::uint32_t> words, Codec codec, int 
     } else {
         std::memcpy(payload, src, raw);
     }
-    out.resize(kBrickHeaderBytes + size);
+    out.assign(scratch.begin(), scratch.begin() + std::ptrdiff_t(kBrickHeaderBytes + size));
     out[0] = std::byte(codec);
     out[1] = std::byte(codec == Codec::none ? 0 : 1);
     out[2] = out[3] = std::byte(0);

@@ -373,7 +373,8 @@ private:
             todo_.assign(n, 1);
             for (std::size_t j = 0; j < n; ++j) todo_[j] = stored_.empty() || !stored_[L.order[i + j]];
             pool_.parallel_for(0, n, 1, [&](std::size_t j0, std::size_t j1) {
-                std::vector<std::uint32_t> words_buf(words);
+                thread_local std::vector<std::uint32_t> words_buf;
+                words_buf.resize(words);
                 for (std::size_t j = j0; j < j1; ++j) {
                     const std::uint32_t node = L.order[i + j];
                     own_[node] = own_range(s, t_.nodes[node]);
