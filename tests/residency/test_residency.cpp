@@ -251,3 +251,37 @@ TEST_CASE("visibility feedback marks exactly the cut leaves the rays reached bef
     CHECK(!got.empty());
     (void)f;
 }
+
+TEST_CASE("progressive first-hit iso converges to the in-core iso image of the same cut", "[residency][iso]") {
+    volume::DensityGrid g = octree_test::blobs({60, 52, 44}, 16);
+    octree::Tree t = octree::build(g, {8, 2});
+    VolumeRenderParams p = params_for(g, {0.6f, 0.3f, 1.0f});
+    p.iso = 0.55f;
+    ThreadPool exec(2);
+    std::vector<std::uint32_t> words = octree::encode(t);
+    octree::Cut ref_cut = select_octree_cut(words, p, {0.5f, 1u << 20}, true);
+    REQUIRE(ref_cut.deepest >= 2);
+    octree::apply_cut(words, ref_cut);
+    Frame ref = render_octree_iso_cpu(OctreeView{words, t.bricks}, p, exec);
+    octree::TreeBrickSource src(t);
+    octree::ResidencyConfig cfg;
+    cfg.lod_pixels = 0.5f;
+    cfg.visibility_feedback = false;
+    octree::HostBrickPool pool(octree::pool_slots(src.index(), cfg), src.index()[8]);
+    octree::Residency res(src, pool, cfg);
+    OctreeTerminal term(src.index(), p, true);
+    Frame f;
+    int frames = 0;
+    for (frames = 1; frames < 100; ++frames) {
+        const octree::ResidencyFrame& r = res.update(octree::cut_view(p.camera, p.width, p.height), term);
+        f = render_octree_iso_cpu(OctreeView{r.words, pool.words, 0xFFFFFFFFu, res.feedback()}, p, exec);
+        res.wait_loads();
+        if (frames > 2 && r.requests == 0 && r.uploads == 0 && r.waiting == 0) break;
+    }
+    REQUIRE(frames < 100);
+    CHECK(res.frame().cut.state == ref_cut.state);
+    CHECK(same_pixels(f, ref));
+    std::size_t hits = 0;
+    for (const vec4& c : f.rgba) hits += c.w > 0.0f ? 1u : 0u;
+    CHECK(hits > f.rgba.size() / 20);  // the surface covers 290 of 3072 pixels
+}
