@@ -108,6 +108,8 @@ struct HostBrickPool {
     }
 };
 
+static_assert(BrickPoolBuffer<HostBrickPool>);
+
 /// Slots of the device pool under cfg for the index `words` (word 8: brick words).
 inline std::uint32_t pool_slots(std::span<const std::uint32_t> words, const ResidencyConfig& cfg) {
     if (words.size() < SYLVA_OCT_HEADER_WORDS || words[8] == 0u) throw Error("residency: not a valid encoded octree");
