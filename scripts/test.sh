@@ -3,7 +3,10 @@
 # exit status is ctest's.
 #   scripts/test.sh                      Release build in build/
 #   scripts/test.sh --sanitize           ASan+UBSan (RelWithDebInfo) build in build-asan/
-#   scripts/test.sh [--sanitize] ARGS... extra ARGS go to ctest (e.g. -R bih)
+#   scripts/test.sh --tsan               ThreadSanitizer (RelWithDebInfo) build in build-tsan/ of the
+#                                        tests labelled tsan only (executor, parallel builders,
+#                                        concurrent tests; target sylva_tsan_tests), no Vulkan
+#   scripts/test.sh [--sanitize|--tsan] ARGS...  extra ARGS go to ctest (e.g. -R bih)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -16,10 +19,22 @@ if [[ ${1:-} == --sanitize ]]; then
   config=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DSYLVA_SANITIZE=ON)
   # Show where undefined behaviour happened, not only that it did.
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
+elif [[ ${1:-} == --tsan ]]; then
+  shift
+  build="build-tsan"
+  # Host tests only: the Vulkan driver, the examples and the benchmarks are not ours to race-check.
+  config=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DSYLVA_TSAN=ON -DSYLVA_WITH_VULKAN=OFF -DSYLVA_BUILD_EXAMPLES=OFF
+          -DSYLVA_BUILD_BENCHMARKS=OFF)
+  # A race fails its test (exit 66) with both stacks; second_deadlock_stack for lock inversions.
+  export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1 exitcode=66 second_deadlock_stack=1}
 fi
 
 bash scripts/deps.sh
 cmake -S . -B "$build" "${config[@]}" -DSYLVA_BUILD_TESTS=ON
+if [[ $build == build-tsan ]]; then
+  cmake --build "$build" -j"$(nproc)" --target sylva_tsan_tests
+  exec ctest --test-dir "$build" --output-on-failure -j2 -L tsan "$@"
+fi
 cmake --build "$build" -j"$(nproc)"
 if [[ $build == build-asan ]]; then
   # LeakSanitizer reports allocations of the Vulkan driver and of OpenImageIO's plugins, which

@@ -178,7 +178,7 @@ TEST_CASE("ikd levels: one axis per level, virtual padding, counts of real nodes
     CHECK(kept * 4 < stored);
 }
 
-TEST_CASE("ikd node ranges equal brute force over the cells below, rounded outward", "[ikd]") {
+TEST_CASE("ikd node ranges equal brute force over the cells below, rounded outward", "[ikd][parallel]") {
     for (volume::Dims d : {volume::Dims(2, 2, 2), volume::Dims(3, 5, 4), volume::Dims(17, 9, 33), volume::Dims(34, 3, 20),
                            volume::Dims(2, 40, 2), volume::Dims(33, 33, 33)}) {
         volume::DensityGrid g = blobs(d, d.x * 131 + d.y * 7 + d.z);

@@ -50,7 +50,7 @@ TEST_CASE("gradient of a quadratic: central inside, one-sided at the borders", "
     CHECK(volume::gradient_at(g, 3, 0, 0).z == 0.0f);  // a single voxel along z
 }
 
-TEST_CASE("whole-grid gradients match gradient_at on every voxel, serial and parallel", "[gradient]") {
+TEST_CASE("whole-grid gradients match gradient_at on every voxel, serial and parallel", "[gradient][parallel]") {
     DensityGrid g = lodtest::synthetic_grid({13, 11, 9}, vec3(1.0f, 1.0f, 1.4f), 3u);
     ThreadPool pool(3);
     std::vector<vec3> serial = volume::gradients(g), parallel = volume::gradients(g, pool);

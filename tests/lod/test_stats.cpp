@@ -132,7 +132,7 @@ TEST_CASE("node boxes contain their elements and their children, leaves equal th
     }
 }
 
-TEST_CASE("statistics are deterministic: serial and thread-pool builds agree", "[stats]") {
+TEST_CASE("statistics are deterministic: serial and thread-pool builds agree", "[stats][parallel]") {
     volume::DensityGrid g = lodtest::synthetic_grid({40, 30, 24}, vec3(1.0f), 13u);
     std::vector<VoxelCuboid> cuboids = volume::voxel_cuboids(g, 0.1f);
     bih::Config cfg;

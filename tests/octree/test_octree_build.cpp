@@ -203,7 +203,7 @@ TEST_CASE("octree neighbour pointers equal a brute-force search, complete and sp
     CHECK(none > 1000);
 }
 
-TEST_CASE("octree build is the same with a thread pool", "[octree]") {
+TEST_CASE("octree build is the same with a thread pool", "[octree][parallel]") {
     volume::DensityGrid g = blobs({70, 45, 33}, 6);
     ThreadPool pool(4);
     octree::Tree a = octree::build(g, {8, 2}), b = octree::build(g, pool, {8, 2});

@@ -161,7 +161,7 @@ TEST_CASE("trim-both needs fewer single-child nodes than +-inf planes", "[bih][b
     CHECK(a.stats.leaves == b.stats.leaves);
 }
 
-TEST_CASE("parallel build equals the serial build", "[bih][build]") {
+TEST_CASE("parallel build equals the serial build", "[bih][build][parallel]") {
     auto elems = testing::clustered_boxes(200000, 23);
     std::span<const BoxElement> es(elems);
     bih::Config cfg;
@@ -257,7 +257,7 @@ std::uint64_t words_fingerprint(const std::vector<std::uint32_t>& w) {
 }
 }  // namespace
 
-TEST_CASE("encodings equal the original encoder's, serial and parallel (golden fingerprints)", "[bih][encode]") {
+TEST_CASE("encodings equal the original encoder's, serial and parallel (golden fingerprints)", "[bih][encode][parallel]") {
     // Fingerprints of what the original (serial, 704a01c) encoder wrote for these trees: pairs of
     // RangePayload and a payload that reads the elements, in four formats / layouts.
     const std::uint64_t want[2][8] = {
