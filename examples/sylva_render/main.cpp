@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <new>
 #include <stdexcept>
 
 #include <sylva/bih/build.hpp>
@@ -114,6 +115,12 @@ int main(int argc, char** argv) {
     }
     try {
         return sylva_render::run(opts);
+    } catch (const std::bad_alloc&) {
+        // A volume, particle set or index larger than the memory this process may use (ulimit,
+        // cgroup, or the machine): say so, not just "std::bad_alloc".
+        std::cerr << "sylva-render: out of memory (std::bad_alloc): the input, its index or the image needs more "
+                     "memory than this process can allocate; try a smaller input, --resample, --size or --count\n";
+        return 1;
     } catch (const std::exception& e) {
         std::cerr << "sylva-render: " << e.what() << "\n";
         return 1;
