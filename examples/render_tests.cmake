@@ -350,8 +350,9 @@ foreach(backend cpu vulkan)
   sylva_render_test(octree_ooc_${backend}
     ARGS --volume procedural:ml --index octree --brick 16 --frames 12 --orbit --memory-budget 8M --device-budget 4M
          --backend ${backend} --size 96x72 --quiet -o ${_out}/octree_ooc_${backend}.png
-         --stats-json ${_out}/octree_ooc_${backend}.json
-    FILES ${_out}/octree_ooc_${backend}.png JSON ${_out}/octree_ooc_${backend}.json EXTRA_KEYS ${_oct_keys} ${_ooc_keys}
+         --stats-json ${_out}/octree_ooc_${backend}.json --frames-out ${_out}/octree_ooc_frames_${backend}
+    FILES ${_out}/octree_ooc_${backend}.png ${_out}/octree_ooc_frames_${backend}/frame_0000.png
+          ${_out}/octree_ooc_frames_${backend}/frame_0011.png JSON ${_out}/octree_ooc_${backend}.json EXTRA_KEYS ${_oct_keys} ${_ooc_keys}
     JSON_MIN visible_pixels=1000 bricks_loaded=8 device_pool_bytes=4000000 peak_rss_bytes=1000000
     JSON_EQUAL bad_bricks=0 errors=0 device_slots=131 memory_budget=8388608)
 endforeach()
@@ -367,6 +368,10 @@ if(SYLVA_HAVE_STORE)  # sylva-store is defined after this file is included
          --quiet -o ${_out}/octree_ooc_store.png --stats-json ${_out}/octree_ooc_store.json
     FILES ${_out}/octree_ooc_store.png JSON ${_out}/octree_ooc_store.json EXTRA_KEYS ${_oct_keys} ${_ooc_keys}
     JSON_MIN visible_pixels=1000 bricks_loaded=8 JSON_EQUAL bad_bricks=0 errors=0 bricks=73)
+endif()
+if(SYLVA_HAVE_STORE)
+  sylva_render_test(octree_ooc_store_brick FIXTURE sylva_ooc_store RC 2 ERR "--brick does not apply to a brick store"
+    ARGS --volume ${_out}/ml64.store --index octree --brick 32 -o ${_out}/x.png)
 endif()
 sylva_render_test(octree_ooc_without_octree RC 2 ERR "--frames, --frames-out, --orbit and --feedback need"
   ARGS --volume procedural:ml --frames 4 -o ${_out}/x.png)

@@ -102,6 +102,11 @@ sylva::Frame ooc_frames(const Options& o, const S& src, Buf& buf, const sylva::o
     OctreeTerminal terminal(src.index(), p, iso);
     Frame f;
     Stats::OocRows& r = s.ooc;
+    if (!o.frames_out.empty()) {
+        std::error_code ec;
+        std::filesystem::create_directories(o.frames_out, ec);
+        if (ec) throw Error("--frames-out " + o.frames_out + ": cannot create the directory (" + ec.message() + ")");
+    }
     for (std::uint32_t i = 0; i < o.frames; ++i) {
         auto t0 = std::chrono::steady_clock::now();
         if (o.orbit) p.camera = ooc_params(o, res.header(), ooc_view(o, i)).camera;

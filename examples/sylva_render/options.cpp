@@ -28,6 +28,7 @@ const char* usage() {
            "out of core:        [--index octree] [--memory-budget SIZE] [--device-budget SIZE] [--frames N]\n"
            "                    [--frames-out DIR] [--orbit] [--feedback on|off]; --volume STORE (a brick\n"
            "                    store directory made by sylva-store build) always renders out of core\n"
+           "                    (32 frames unless --frames; --brick is the store's)\n"
            "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
            "                    pipelines compiled)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
@@ -209,6 +210,10 @@ Options parse(int argc, char** argv) {
                                     "--index octree and a volume (out-of-core rendering)");
     if (ooc_given && o.frames == 0) o.frames = 32;
     if (o.octree_index() && o.volume_input() && o.frames == 0 && is_directory_with(o.volume, "data.mdb")) o.frames = 32;
+    if (is_directory_with(o.volume, "data.mdb"))
+        for (int i = 1; i < argc; ++i)
+            if (std::string(argv[i]) == "--brick" || std::string(argv[i]) == "--resample")
+                throw std::invalid_argument(std::string(argv[i]) + " does not apply to a brick store (its bricks are built)");
     if (!o.octree_index() && is_directory_with(o.volume, "data.mdb"))
         throw std::invalid_argument("--volume " + o.volume + " is a brick store: it renders with --index octree");
     if (o.octree_index() && o.dvr == "multi")
