@@ -29,7 +29,8 @@ while (($#)); do
     *) targets+=("${1#fuzz_}"); shift ;;
   esac
 done
-all=$(sed -n '/^set(SYLVA_FUZZ_TARGETS/,/)/p' fuzz/targets.cmake | tr -d '()' | tr -s ' \n' '\n' | grep -v -e '^set$' -e '^SYLVA_FUZZ_TARGETS$' -e '^$')
+all=$(sed -n '/^set(SYLVA_FUZZ_TARGETS/,/)/p' fuzz/targets.cmake | sed 's/^set(SYLVA_FUZZ_TARGETS//' | tr -d '()' |
+  tr -s ' \n' '\n' | grep -v '^$')
 ((${#targets[@]})) || mapfile -t targets <<<"$all"
 for t in "${targets[@]}"; do
   grep -qx "$t" <<<"$all" || { echo "fuzz.sh: no target '$t' (known: $(echo $all))" >&2; exit 2; }

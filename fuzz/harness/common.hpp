@@ -75,16 +75,27 @@ inline std::string safe_name(std::string_view s) {
     return out;
 }
 
-/// Writes `bytes` to NAME in the scratch folder (replacing it) and returns its path.
-inline std::filesystem::path write_file(const std::string& name, const void* bytes, std::size_t size) {
-    std::filesystem::path p = ScratchDir::path() / name;
-    std::error_code ec;
-    std::filesystem::remove_all(p, ec);
-    std::ofstream out(p, std::ios::binary | std::ios::trunc);
-    out.write(static_cast<const char*>(bytes), static_cast<std::streamsize>(size));
-    SYLVA_FUZZ_CHECK(out.good(), "cannot write the input to the scratch folder");
-    return p;
-}
+/// A file in the scratch folder, removed when this goes out of scope (a harness run leaves
+/// nothing behind, whatever names the inputs choose).
+class ScratchFile {
+public:
+    /// Writes `bytes` to NAME in the scratch folder (replacing it).
+    ScratchFile(const std::string& name, const void* bytes, std::size_t size) : path_(ScratchDir::path() / name) {
+        std::ofstream out(path_, std::ios::binary | std::ios::trunc);
+        out.write(static_cast<const char*>(bytes), static_cast<std::streamsize>(size));
+        SYLVA_FUZZ_CHECK(out.good(), "cannot write the input to the scratch folder");
+    }
+    ScratchFile(const ScratchFile&) = delete;
+    ScratchFile& operator=(const ScratchFile&) = delete;
+    ~ScratchFile() {
+        std::error_code ec;
+        std::filesystem::remove(path_, ec);
+    }
+    [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+
+private:
+    std::filesystem::path path_;
+};
 
 /// The input split at its first newline: {first line, the rest}. No newline: {all, nothing}.
 struct Split {

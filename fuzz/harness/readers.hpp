@@ -62,9 +62,9 @@ inline int fuzz_raw_name(const std::uint8_t* data, std::size_t size) {
 inline int fuzz_raw(const std::uint8_t* data, std::size_t size) {
     Split s = split_line(data, size);
     std::string name = safe_name(s.head);
-    auto path = write_file(name, s.rest.data(), s.rest.size());
+    ScratchFile file(name, s.rest.data(), s.rest.size());
     try {
-        sylva::volume::Volume v = sylva::volume::read_volume(path);
+        sylva::volume::Volume v = sylva::volume::read_volume(file.path());
         check_volume(v);
     } catch (const sylva::Error&) {
     }
@@ -73,9 +73,9 @@ inline int fuzz_raw(const std::uint8_t* data, std::size_t size) {
 
 /// The input is an NRRD file with attached data (its header, a blank line, the data).
 inline int fuzz_nrrd_attached(const std::uint8_t* data, std::size_t size) {
-    auto path = write_file("v.nrrd", data, size);
+    ScratchFile file("v.nrrd", data, size);
     try {
-        check_volume(sylva::volume::read_nrrd(path));
+        check_volume(sylva::volume::read_nrrd(file.path()));
     } catch (const sylva::Error&) {
     }
     return 0;
@@ -91,10 +91,10 @@ inline int fuzz_nrrd_detached(const std::uint8_t* data, std::size_t size) {
     std::size_t at = all.find(detached_separator);
     std::string_view header = all.substr(0, at);
     std::string_view body = at == std::string_view::npos ? std::string_view{} : all.substr(at + detached_separator.size());
-    write_file("v.raw", body.data(), body.size());
-    auto path = write_file("v.nhdr", header.data(), header.size());
+    ScratchFile data_file("v.raw", body.data(), body.size());
+    ScratchFile file("v.nhdr", header.data(), header.size());
     try {
-        check_volume(sylva::volume::read_nrrd(path));
+        check_volume(sylva::volume::read_nrrd(file.path()));
     } catch (const sylva::Error&) {
     }
     return 0;
@@ -130,9 +130,9 @@ inline int fuzz_nrrd_gzip(const std::uint8_t* data, std::size_t size) {
         if (blank != std::string::npos) file = file.substr(0, blank + 2) + gzip_bytes(std::string_view(file).substr(blank + 2));
     }
 #endif
-    auto path = write_file("v.nrrd", file.data(), file.size());
+    ScratchFile stored("v.nrrd", file.data(), file.size());
     try {
-        check_volume(sylva::volume::read_nrrd(path));
+        check_volume(sylva::volume::read_nrrd(stored.path()));
     } catch (const sylva::Error&) {
     }
     return 0;
@@ -154,9 +154,9 @@ inline void check_tf(const sylva::volume::TransferFunction& tf) {
 
 /// The input is a transfer-function text file.
 inline int fuzz_tf_text(const std::uint8_t* data, std::size_t size) {
-    auto path = write_file("tf.txt", data, size);
+    ScratchFile file("tf.txt", data, size);
     try {
-        check_tf(sylva::volume::TransferFunction::from_text(path));
+        check_tf(sylva::volume::TransferFunction::from_text(file.path()));
     } catch (const sylva::Error&) {
     }
     return 0;
@@ -164,9 +164,9 @@ inline int fuzz_tf_text(const std::uint8_t* data, std::size_t size) {
 
 /// The input is a transfer-function JSON file.
 inline int fuzz_tf_json(const std::uint8_t* data, std::size_t size) {
-    auto path = write_file("tf.json", data, size);
+    ScratchFile file("tf.json", data, size);
     try {
-        check_tf(sylva::volume::TransferFunction::from_json(path));
+        check_tf(sylva::volume::TransferFunction::from_json(file.path()));
     } catch (const sylva::Error&) {
     }
     return 0;
@@ -177,10 +177,10 @@ inline int fuzz_tf_json(const std::uint8_t* data, std::size_t size) {
 /// validate and walk to the end (the builder's output is trusted by everything after it).
 inline int fuzz_particles(const std::uint8_t* data, std::size_t size) {
     Split s = split_line(data, size);
-    auto path = write_file(safe_name(s.head), s.rest.data(), s.rest.size());
     std::vector<sylva::vec3> points;
     try {
-        points = sylva::io::read_points(path.string());
+        ScratchFile file(safe_name(s.head), s.rest.data(), s.rest.size());
+        points = sylva::io::read_points(file.path().string());
     } catch (const sylva::Error&) {
         return 0;
     }
