@@ -105,7 +105,7 @@ TEST_CASE("progressive render with visibility feedback draws the in-core image o
     CHECK(max_diff < 2.0 / 255.0);
 }
 
-TEST_CASE("budgets hold at every step of an orbit; every drawn brick is resident and holds its node's brick", "[residency][budget]") {
+TEST_CASE("budgets hold at every step of an orbit, and every drawn brick is resident and holds its node's brick", "[residency][budget]") {
     volume::DensityGrid g = octree_test::blobs({64, 64, 64}, 13);
     octree::Tree t = octree::build(g, {8, 2});
     const std::size_t bb = std::size_t{t.brick_words()} * 4;
