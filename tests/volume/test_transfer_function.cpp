@@ -156,21 +156,24 @@ TEST_CASE("JSON transfer functions: {\"points\": [[d, r, g, b, a], ...], \"entri
     fails_with("{\"points\": []}", "\"points\" is empty");
     fails_with("{\"points\": [[0,0,0,0,0]], \"entries\": 100}", "256 to 65536");
     fails_with("{\"points\": [[0,0,0,0,0]], \"entries\": 300.5}", "whole number");
-    fails_with("{\n\"points\": [\n[0, 0, 0, 0, 0],\n[1, 1, 1, 1]\n]}", "line 4: a point needs 5 numbers");
-    fails_with("{\"points\": [[0, 0, 0, 0, 0, 0]]}", "exactly 5 numbers");
-    fails_with("{\n\"points\": [[0, 0, 0, 0, 0],\n  [1, 1, 1, 1, 2]]}", "line 3: point 1: a = 2");
-    fails_with("{\"points\": [[0, 0, 0, 0, 0],]}", "expected '['");
-    fails_with("{\"points\": [[0, 0, 0, 0, 0]]", "expected '}', found the end of the file");
-    fails_with("{\"points\": [[0, 0, 0, 0, 0]]} trailing", "after the closing '}'");
+    fails_with("{\n\"points\": [\n[0, 0, 0, 0, 0],\n[1, 1, 1, 1]\n]}", "point 1 has 4 numbers; a point is exactly 5");
+    fails_with("{\"points\": [[0, 0, 0, 0, 0, 0]]}", "point 0 has 6 numbers");
+    fails_with("{\n\"points\": [[0, 0, 0, 0, 0],\n  [1, 1, 1, 1, 2]]}", "point 1: a = 2");
+    fails_with("{\"points\": [[0, 0, 0, 0, 0],]}", "line 1, column 29: syntax error");
+    fails_with("{\"points\": [[0, 0, 0, 0, 0]]", "unexpected end of input; expected '}'");
+    fails_with("{\"points\": [[0, 0, 0, 0, 0]]} trailing", "expected end of input");
     fails_with("{\"points\": [[0, 0, 0, 0, 0]], \"points\": [[1,1,1,1,1]]}", "given twice");
-    fails_with("{\"points\": [[0, 0, nan, 0, 0]]}", "expected a finite number");
-    fails_with("{\"points\": [[1e308, 0, 0, 0, 0]]}", "'1e308' is outside the float32 range");
+    fails_with("{\"points\": [[0, 0, nan, 0, 0]]}", "invalid literal");
+    fails_with("{\"points\": [[1e308, 0, 0, 0, 0]]}", "point 0: '1e+308' is outside the float32 range");
+    fails_with("{\"points\": [[1e400, 0, 0, 0, 0]]}", "number overflow");
+    fails_with("{\"points\": [[0, \"red\", 0, 0, 0]]}", "point 0: value 1 is string, not a number");
+    fails_with("{\"points\": {\"d\": 0}}", "\"points\" must be an array");
     fails_with("{\"points\": [[0, 0, 0, 0, 0]], \"entries\": 1e300}", "outside the float32 range");
-    fails_with("{\"name\": \"unterminated}", "unterminated string");
+    fails_with("{\"name\": \"unterminated}", "missing closing quote");
     fails_with("{\"x\": " + std::string(100, '[') + std::string(100, ']') + ", \"points\": [[0,0,0,0,0]]}",
                "deeper than 64");
-    fails_with("[[0, 0, 0, 0, 0]]", "expected '{'");
-    fails_with("", "expected '{', found the end of the file");
+    fails_with("[[0, 0, 0, 0, 0]]", "expected an object");
+    fails_with("", "unexpected end of input");
     CHECK_THROWS_WITH(TransferFunction::from_json(dir / "missing.json"),
                       Contains("missing.json") && Contains("cannot open"));
 }

@@ -20,7 +20,9 @@
 //  * text: one control point per line, "density r g b a" (five numbers separated by spaces or
 //    tabs); '#' starts a comment that runs to the end of the line; blank lines are skipped.
 //  * JSON: {"points": [[d, r, g, b, a], ...], "entries": 256}; "entries" is optional (256),
-//    other keys are ignored. Parsed by a small hand-written reader (no dependency).
+//    other keys are ignored. Parsed with nlohmann-json (Debian's nlohmann-json3-dev, found with
+//    __has_include: a well-kept parser whose errors give line and column, rather than a
+//    hand-written one); without it from_json throws an error that says so.
 #ifndef SYLVA_VOLUME_TRANSFER_FUNCTION_HPP
 #define SYLVA_VOLUME_TRANSFER_FUNCTION_HPP
 
@@ -37,6 +39,13 @@
 #include <string_view>
 #include <cctype>
 #include <vector>
+
+#if __has_include(<nlohmann/json.hpp>)
+#include <nlohmann/json.hpp>
+#define SYLVA_TF_HAS_JSON 1
+#else
+#define SYLVA_TF_HAS_JSON 0
+#endif
 
 #include "sylva/core/error.hpp"
 #include "sylva/core/math.hpp"
@@ -206,8 +215,8 @@ public:
     [[nodiscard]] static TransferFunction from_text(const std::filesystem::path& path,
                                                     std::size_t entries = default_entries);
     /// Reads {"points": [[d, r, g, b, a], ...], "entries": N} (format at the top of this header).
-    /// Throws sylva::Error naming the file and line for malformed JSON, a wrong point, a bad
-    /// "entries", a missing "points", or a missing file.
+    /// Throws sylva::Error naming the file (and, for malformed JSON, the line and column), for a
+    /// wrong point (naming it), a bad "entries", a missing "points", or a missing file.
     [[nodiscard]] static TransferFunction from_json(const std::filesystem::path& path);
 
 private:
@@ -255,184 +264,87 @@ inline TransferFunction TransferFunction::from_text(const std::filesystem::path&
     return TransferFunction(std::move(points), entries);
 }
 
+#if SYLVA_TF_HAS_JSON
 namespace detail::tf {
 
-/// A small JSON reader: enough to read the transfer-function format and to skip any other
-/// value. Errors name the file and the line. Nesting is limited to 64 levels.
-class JsonReader {
-public:
-    JsonReader(std::string text, std::string source) : text_(std::move(text)), source_(std::move(source)) {}
+using Json = nlohmann::json;
 
-    /// "<source> line <n>", the prefix of messages about line `n`.
-    [[nodiscard]] std::string where(int n) const { return source_ + " line " + std::to_string(n); }
-    [[nodiscard]] Error error(const std::string& why) const { return Error(where(line_) + ": " + why); }
-    /// The next non-blank character (0 at the end), not consumed.
-    char peek() {
-        while (pos_ < text_.size() &&
-               (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r' || text_[pos_] == '\n')) {
-            if (text_[pos_] == '\n') ++line_;
-            ++pos_;
-        }
-        return pos_ < text_.size() ? text_[pos_] : '\0';
+/// Point i of "points" as a ControlPoint: an array of exactly 5 numbers, each within float32.
+inline ControlPoint json_point(const Json& p, std::size_t i, const std::string& source) {
+    const std::string where = source + ": point " + std::to_string(i);
+    if (!p.is_array()) throw Error(where + " is " + std::string(p.type_name()) + ", not an array [d, r, g, b, a]");
+    if (p.size() != 5)
+        throw Error(where + " has " + std::to_string(p.size()) + " numbers; a point is exactly 5 numbers [d, r, g, b, a]");
+    double v[5];
+    for (std::size_t k = 0; k < 5; ++k) {
+        if (!p[k].is_number()) throw Error(where + ": value " + std::to_string(k) + " is " + p[k].type_name() + ", not a number");
+        v[k] = p[k].get<double>();
+        if (std::string why = float32_problem(v[k], p[k].dump()); !why.empty()) throw Error(where + ": " + why);
     }
-    void expect(char c) {
-        char got = peek();
-        if (got != c)
-            throw error(std::string("expected '") + c + "', found " +
-                        (got ? "'" + std::string(1, got) + "'" : "the end of the file"));
-        ++pos_;
-    }
-    /// Consumes `c` when it comes next.
-    bool accept(char c) {
-        if (peek() != c) return false;
-        ++pos_;
-        return true;
-    }
-    [[nodiscard]] bool at_end() { return peek() == '\0'; }
-    [[nodiscard]] int line() const { return line_; }
-
-    double number() {
-        peek();
-        std::size_t b = pos_;
-        while (pos_ < text_.size() && std::string_view("+-0123456789.eE").find(text_[pos_]) != std::string_view::npos)
-            ++pos_;
-        double v = 0.0;
-        if (b == pos_ || text_[b] == '+' || !parse_float(std::string_view(text_).substr(b, pos_ - b), v))
-            throw error("expected a finite number, found '" + text_.substr(b, std::max<std::size_t>(pos_ - b, 1)) +
-                        "'");
-        if (std::string why = float32_problem(v, std::string_view(text_).substr(b, pos_ - b)); !why.empty())
-            throw error(why);
-        return v;
-    }
-    /// A string; escapes are kept only as far as keys need (\uXXXX becomes '?').
-    std::string string() {
-        expect('"');
-        std::string out;
-        for (;;) {
-            if (pos_ >= text_.size()) throw error("unterminated string");
-            char c = text_[pos_++];
-            if (c == '"') return out;
-            if (c == '\n') throw error("line break inside a string");
-            if (c != '\\') {
-                out.push_back(c);
-                continue;
-            }
-            if (pos_ >= text_.size()) throw error("unterminated string");
-            char e = text_[pos_++];
-            if (e == 'u') {
-                if (text_.size() - pos_ < 4) throw error("short \\u escape");
-                pos_ += 4;
-                out.push_back('?');
-            } else if (std::string_view("\"\\/bfnrt").find(e) != std::string_view::npos) {
-                out.push_back(e);
-            } else {
-                throw error(std::string("unknown escape '\\") + e + "'");
-            }
-        }
-    }
-    /// Skips any value (object, array, string, number, true, false, null).
-    void skip_value(int depth = 0) {
-        if (depth > 64) throw error("nested deeper than 64 levels");
-        char c = peek();
-        if (c == '"') {
-            string();
-            return;
-        }
-        if (c == '{' || c == '[') {
-            skip_container(c, depth);
-            return;
-        }
-        for (std::string_view word : {"true", "false", "null"})
-            if (std::string_view(text_).substr(pos_, word.size()) == word) {
-                pos_ += word.size();
-                return;
-            }
-        number();
-    }
-
-private:
-    void skip_container(char open, int depth) {
-        char close = open == '{' ? '}' : ']';
-        expect(open);
-        if (accept(close)) return;
-        do {
-            if (open == '{') {
-                string();
-                expect(':');
-            }
-            skip_value(depth + 1);
-        } while (accept(','));
-        expect(close);
-    }
-
-    std::string text_;
-    std::string source_;
-    std::size_t pos_ = 0;
-    int line_ = 1;
-};
-
-/// "points": an array of [d, r, g, b, a] arrays.
-inline std::vector<ControlPoint> json_points(JsonReader& r) {
-    std::vector<ControlPoint> points;
-    r.expect('[');
-    if (r.accept(']')) return points;
-    do {
-        r.peek();  // past blanks, so the line is the point's own
-        int line = r.line();
-        r.expect('[');
-        double v[5];
-        for (int i = 0; i < 5; ++i) {
-            if (i > 0 && !r.accept(','))
-                throw r.error("a point needs 5 numbers [d, r, g, b, a], found " + std::to_string(i));
-            v[i] = r.number();
-        }
-        if (!r.accept(']')) throw r.error("a point needs exactly 5 numbers [d, r, g, b, a], found more");
-        ControlPoint p{float(v[0]), vec4(float(v[1]), float(v[2]), float(v[3]), float(v[4]))};
-        check_point(p, r.where(line) + ": point " + std::to_string(points.size()));
-        points.push_back(p);
-    } while (r.accept(','));
-    r.expect(']');
-    return points;
+    ControlPoint cp{float(v[0]), vec4(float(v[1]), float(v[2]), float(v[3]), float(v[4]))};
+    check_point(cp, where);
+    return cp;
 }
 
 /// "entries": a whole number in [256, 65536].
-inline std::size_t json_entries(JsonReader& r) {
-    double n = r.number();
-    if (!(n >= double(TransferFunction::min_entries) && n <= double(TransferFunction::max_entries)) ||
-        n != std::floor(n))
-        throw r.error("\"entries\" must be a whole number from 256 to 65536, found " + std::to_string(n));
-    return static_cast<std::size_t>(n);
+inline std::size_t json_entries(const Json& n, const std::string& source) {
+    const double v = n.is_number() ? n.get<double>() : -1.0;
+    if (n.is_number())
+        if (std::string why = float32_problem(v, n.dump()); !why.empty()) throw Error(source + ": \"entries\": " + why);
+    if (!(v >= double(TransferFunction::min_entries) && v <= double(TransferFunction::max_entries)) || v != std::floor(v))
+        throw Error(source + ": \"entries\" must be a whole number from 256 to 65536, found " + n.dump());
+    return static_cast<std::size_t>(v);
+}
+
+/// Parses `text` as JSON (nlohmann-json: errors say line and column), refusing nesting deeper
+/// than 64 levels and a "points" or "entries" key given twice at the top level (JSON allows
+/// both; here they would hide a mistake).
+inline Json parse_json(const std::string& text, const std::string& source) {
+    std::vector<std::string> seen;
+    auto check = [&](int depth, Json::parse_event_t event, Json& parsed) {
+        if (depth > 64) throw Error(source + ": nested deeper than 64 levels");
+        if (event == Json::parse_event_t::key && depth == 1 && parsed.is_string()) {
+            const std::string& key = parsed.get_ref<const std::string&>();
+            if (key == "points" || key == "entries") {
+                if (std::find(seen.begin(), seen.end(), key) != seen.end())
+                    throw Error(source + ": \"" + key + "\" given twice");
+                seen.push_back(key);
+            }
+        }
+        return true;
+    };
+    try {
+        return Json::parse(text, check, /*allow_exceptions=*/true, /*ignore_comments=*/false);
+    } catch (const Json::exception& e) {
+        throw Error(source + ": " + e.what());
+    }
 }
 
 }  // namespace detail::tf
 
 inline TransferFunction TransferFunction::from_json(const std::filesystem::path& path) {
     const std::string source = "transfer function file " + path.string();
-    detail::tf::JsonReader r(detail::tf::read_text(path, "transfer function file"), source);
+    detail::tf::Json doc = detail::tf::parse_json(detail::tf::read_text(path, "transfer function file"), source);
+    if (!doc.is_object())
+        throw Error(source + ": expected an object {\"points\": [...]}, found " + std::string(doc.type_name()));
+    auto pts = doc.find("points");
+    if (pts == doc.end()) throw Error(source + ": missing \"points\"");
+    if (!pts->is_array()) throw Error(source + ": \"points\" must be an array of [d, r, g, b, a] arrays");
+    if (pts->empty()) throw Error(source + ": \"points\" is empty");
     std::vector<ControlPoint> points;
-    std::size_t entries = default_entries;
-    bool have_points = false, have_entries = false;
-    r.expect('{');
-    if (!r.accept('}')) {
-        do {
-            std::string key = r.string();
-            r.expect(':');
-            if ((key == "points" && have_points) || (key == "entries" && have_entries))
-                throw r.error("\"" + key + "\" given twice");
-            if (key == "points")
-                points = detail::tf::json_points(r), have_points = true;
-            else if (key == "entries")
-                entries = detail::tf::json_entries(r), have_entries = true;
-            else
-                r.skip_value();
-        } while (r.accept(','));
-        r.expect('}');
-    }
-    if (!r.at_end()) throw r.error("unexpected text after the closing '}'");
-    if (!have_points) throw Error(source + ": missing \"points\"");
-    if (points.empty()) throw Error(source + ": \"points\" is empty");
+    points.reserve(pts->size());
+    for (std::size_t i = 0; i < pts->size(); ++i) points.push_back(detail::tf::json_point((*pts)[i], i, source));
+    auto n = doc.find("entries");
+    std::size_t entries = n == doc.end() ? default_entries : detail::tf::json_entries(*n, source);
     return TransferFunction(std::move(points), entries);
 }
+#else
+inline TransferFunction TransferFunction::from_json(const std::filesystem::path& path) {
+    throw Error("transfer function file " + path.string() +
+                ": JSON needs nlohmann-json (Debian: nlohmann-json3-dev), which was not found when this was "
+                "compiled; install it or use the text format");
+}
+#endif
 
 }  // namespace sylva::volume
 
