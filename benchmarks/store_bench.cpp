@@ -94,6 +94,7 @@ struct Options {
     std::string json;
     std::filesystem::path dir = "store-bench-tmp";
     std::vector<std::string> sections{"codecs", "backends", "build"};
+    std::vector<std::string> build_codecs{"zstd-1", "zstd-fast3", "lz4"};
     unsigned threads = 0;
 };
 
@@ -337,6 +338,7 @@ void backends_section(const Case& c, const std::vector<std::vector<std::uint32_t
 void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Report& report) {
     for (CodecSetting cs : {CodecSetting{store::Codec::zstd, 1}, CodecSetting{store::Codec::zstd, -3},
                             CodecSetting{store::Codec::lz4, 0}}) {
+        if (std::find(o.build_codecs.begin(), o.build_codecs.end(), cs.name()) == o.build_codecs.end()) continue;
         std::vector<double> tb, tcpu, tdd, tdd_stored, tcold, twarm;
         store::StreamResult last;
         std::uint64_t file_bytes = 0;
@@ -409,10 +411,11 @@ Options parse(int argc, char** argv) {
         else if (a == "--dir") o.dir = value();
         else if (a == "--sections") o.sections = split(value());
         else if (a == "--threads") o.threads = unsigned(std::stoul(value()));
+        else if (a == "--build-codecs") o.build_codecs = split(value());
         else if (a == "--quick") o.cases = {"ml96"}, o.runs = 1;
         else
             throw Error("usage: sylva-store-bench [--cases aneurism,ml256,ml512,ml1024u16] [--sections codecs,backends,build] "
-                        "[--runs N] [--dir DIR] [--threads T] [--json FILE] [--quick]");
+                        "[--build-codecs zstd-1,zstd-fast3,lz4] [--runs N] [--dir DIR] [--threads T] [--json FILE] [--quick]");
     }
     return o;
 }
