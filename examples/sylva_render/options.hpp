@@ -19,7 +19,7 @@ struct Options {
                                      ///< kd-tree; implicit-kd: exact isosurfaces over Wald's implicit kd-tree,
                                      ///< dda: the same over every cell (the reference); octree: Gobbetti's
                                      ///< bricked octree, DVR or first-hit iso, for volumes; the element
-                                     ///< octree for --particles or --count (host only))
+                                     ///< octree for --particles or --count (cpu or vulkan))
     std::uint32_t brick = 32;        ///< --brick 16|32: octree brick size
     float lod_pixels = 0.0f;         ///< --lod-pixels P: view-dependent octree cut (0: full resolution)
     std::uint32_t cut_nodes = 1u << 20;  ///< --cut-nodes N: node budget of the octree cut
