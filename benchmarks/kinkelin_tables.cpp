@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <sylva/bih/lod.hpp>
 #include <sylva/bih/stats.hpp>
 #include <sylva/core/executor.hpp>
@@ -251,25 +252,18 @@ void print_case(const std::string& name, const std::string& title, const std::ve
     }
 }
 
-std::string json_string(const std::string& s) {
-    std::string out = "\"";
-    for (char ch : s) {
-        if (ch == '"' || ch == '\\') out += '\\';
-        out += ch;
-    }
-    return out + "\"";
-}
-
+/// The records as a JSON array, one record a line (nlohmann-json writes strings and numbers).
 void write_json(const std::string& path, const std::vector<Record>& rs) {
     std::ofstream f(path);
     if (!f) throw Error("sylva-tables: cannot write " + path);
     f << "[\n";
     for (std::size_t i = 0; i < rs.size(); ++i) {
-        char num[40];
-        std::snprintf(num, sizeof num, "%.9g", rs[i].value);
-        f << "  {\"case\": " << json_string(rs[i].case_name) << ", \"impl\": " << json_string(rs[i].impl)
-          << ", \"metric\": " << json_string(rs[i].metric) << ", \"value\": " << num
-          << ", \"unit\": " << json_string(rs[i].unit) << "}" << (i + 1 < rs.size() ? ",\n" : "\n");
+        if (!std::isfinite(rs[i].value))
+            throw Error("sylva-tables: " + rs[i].case_name + " " + rs[i].metric + " is not finite");
+        nlohmann::ordered_json rec{{"case", rs[i].case_name}, {"impl", rs[i].impl}, {"metric", rs[i].metric},
+                                   {"value", rs[i].value}, {"unit", rs[i].unit}};
+        f << "  " << rec.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace)
+          << (i + 1 < rs.size() ? ",\n" : "\n");
     }
     f << "]\n";
     if (!f) throw Error("sylva-tables: writing " + path + " failed");

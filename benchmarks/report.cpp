@@ -1,4 +1,4 @@
-// benchmarks/report.cpp -- the records: JSON (written by hand) and the readable table.
+// benchmarks/report.cpp -- the records: JSON (through nlohmann-json) and the readable table.
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -6,6 +6,8 @@
 #include <iostream>
 #include <sstream>
 #include <stdexcept>
+
+#include <nlohmann/json.hpp>
 
 #include "bench.hpp"
 
@@ -37,34 +39,6 @@ bool Report::paired(const Record& peer) const {
 
 namespace {
 
-std::string json_string(const std::string& s) {
-    std::string out = "\"";
-    for (char c : s) {
-        if (c == '"' || c == '\\') {
-            out += '\\';
-            out += c;
-        } else if (static_cast<unsigned char>(c) < 0x20) {
-            char buf[8];
-            std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(c));
-            out += buf;
-        } else {
-            out += c;
-        }
-    }
-    return out + "\"";
-}
-
-/// A JSON number: integers exactly, others with 9 significant digits. NaN/inf are not JSON.
-std::string json_number(double v) {
-    if (!std::isfinite(v)) throw std::runtime_error("sylva-bench: a measurement is not finite");
-    char buf[32];
-    if (v == std::floor(v) && std::fabs(v) < 9e15)
-        std::snprintf(buf, sizeof buf, "%.0f", v);
-    else
-        std::snprintf(buf, sizeof buf, "%.9g", v);
-    return buf;
-}
-
 /// A value for the table: 4 significant digits, thousands as k/M/G for large ones.
 std::string human(double v) {
     const char* suffix[] = {"", "k", "M", "G"};
@@ -88,16 +62,21 @@ void Report::write_json(const std::string& path) const {
     f << "[\n";
     for (std::size_t i = 0; i < records_.size(); ++i) {
         const Record& r = records_[i];
-        f << "  {\"case\": " << json_string(r.case_name) << ", \"impl\": " << json_string(r.impl)
-          << ", \"metric\": " << json_string(r.metric) << ", \"value\": " << json_number(r.value)
-          << ", \"unit\": " << json_string(r.unit);
+        // NaN and infinities are not JSON (nlohmann would write null): a measurement that is
+        // not finite is a bug to report, not a value.
+        if (!std::isfinite(r.value))
+            throw std::runtime_error("sylva-bench: " + r.case_name + " " + r.impl + " " + r.metric + " is not finite");
+        nlohmann::ordered_json rec{{"case", r.case_name}, {"impl", r.impl}, {"metric", r.metric}, {"value", r.value},
+                                   {"unit", r.unit}};
         if (!r.config.empty()) {
             std::string text = r.config;
             for (const auto& c : configs_)
                 if (c.first == r.config) text = c.first + ": " + c.second;
-            f << ", \"config\": " << json_string(text);
+            rec["config"] = text;
         }
-        f << "}" << (i + 1 < records_.size() ? ",\n" : "\n");
+        // One record a line; bytes that are not UTF-8 (a file name) become U+FFFD, never an error.
+        f << "  " << rec.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace)
+          << (i + 1 < records_.size() ? ",\n" : "\n");
     }
     f << "]\n";
     f.close();
