@@ -8,7 +8,7 @@
 //   build     the streamed builder (sylva-store build) per codec: MB/s of source voxels,
 //             bricks/s, against a dd-like sequential write (write + fdatasync) of the same byte
 //             count in the same run; then Store::read_brick over every brick, cold and warm
-// Cases: aneurism (../shared/data), ml256, ml512 (procedural Marschner-Lobb, float32, generated
+// Cases: aneurism (../shared/data), aneurismxK (upsampled by K, float32 slices), ml256, ml512 (procedural Marschner-Lobb, float32, generated
 // slice by slice), ml1024u16 (Marschner-Lobb quantised to uint16: the 2 GiB volume).
 // Medians of --runs runs. JSON records {case, impl, metric, value, unit} through bench::Report.
 #include <fcntl.h>
@@ -131,11 +131,15 @@ private:
 Case make_case(const std::string& name) {
     Case c;
     c.name = name;
-    if (name == "aneurism") {
+    if (name == "aneurism" || name.rfind("aneurismx", 0) == 0) {
         auto file = std::filesystem::path(SYLVA_STORE_BENCH_DATA) / "aneurism_256x256x256_uint8.raw";
         if (!std::filesystem::exists(file)) throw Error("aneurism: " + file.string() + " is missing");
-        c.source = [file] {
-            return std::make_unique<store::RawFileSlices>(file, volume::parse_raw_name(file.filename().string()));
+        // aneurismxK: upsampled by K (sylva-store build ... --resample K), float32 slices
+        const float k = name == "aneurism" ? 1.0f : std::stof(name.substr(9));
+        c.source = [file, k]() -> std::unique_ptr<store::SliceSource> {
+            auto raw = std::make_unique<store::RawFileSlices>(file, volume::parse_raw_name(file.filename().string()));
+            if (k == 1.0f) return raw;
+            return std::make_unique<store::ResampledSlices>(std::move(raw), k);
         };
         c.voxel_bytes = 256u * 256u * 256u;
     } else if (name.rfind("ml", 0) == 0) {
@@ -414,7 +418,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--build-codecs") o.build_codecs = split(value());
         else if (a == "--quick") o.cases = {"ml96"}, o.runs = 1;
         else
-            throw Error("usage: sylva-store-bench [--cases aneurism,ml256,ml512,ml1024u16] [--sections codecs,backends,build] "
+            throw Error("usage: sylva-store-bench [--cases aneurism,aneurismx4,ml256,ml512,ml1024u16] [--sections codecs,backends,build] "
                         "[--build-codecs zstd-1,zstd-fast3,lz4] [--runs N] [--dir DIR] [--threads T] [--json FILE] [--quick]");
     }
     return o;
