@@ -27,6 +27,7 @@
 #include <sylva/octree/build.hpp>
 #include <sylva/octree/cut.hpp>
 #include <sylva/octree/encode.hpp>
+#include <sylva/octree/octants.hpp>
 #include <sylva/render/camera.hpp>
 #include <sylva/render/metrics.hpp>
 #include <sylva/render/octree_volume.hpp>
@@ -187,17 +188,26 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     octree::Cut cut_iso = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, true);
     octree::apply_cut(lod_iso, cut_iso);
     GridWords gw = GridWords::from(g);
-    const char* names[] = {"marcher", "octree-full", "octree-lod", "iso-full", "iso-lod"};
+    // Octant masks (octree/octants.hpp): the ranges once per octree, the masks once per TF.
+    auto t_oct = std::chrono::steady_clock::now();
+    octree::OctantRanges oct_ranges = octree::octant_ranges(full, t.bricks, pool);
+    double octant_ranges_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_oct).count();
+    std::vector<std::uint32_t> octmask = octree::octant_masks(oct_ranges, tf_opacity_prefix(p.tf));
+    const char* names[] = {"marcher", "octree-full", "octree-lod", "iso-full", "iso-lod", "octree-full-octants",
+                           "octree-lod-octants"};
+    constexpr std::size_t kImpls = 7;
     auto render = [&](std::size_t i, const VolumeRenderParams& q) {
         switch (i) {
             case 0: return render_dvr_cpu(gw, q, pool);
             case 1: return render_octree_dvr_cpu(OctreeView{full, t.bricks}, q, pool);
             case 2: return render_octree_dvr_cpu(OctreeView{lod, t.bricks}, q, pool);
             case 3: return render_octree_iso_cpu(OctreeView{full, t.bricks}, q, pool);
-            default: return render_octree_iso_cpu(OctreeView{lod_iso, t.bricks}, q, pool);
+            case 4: return render_octree_iso_cpu(OctreeView{lod_iso, t.bricks}, q, pool);
+            case 5: return render_octree_dvr_cpu(OctreeView{full, t.bricks, 0xFFFFFFFFu, {}, octmask}, q, pool);
+            default: return render_octree_dvr_cpu(OctreeView{lod, t.bricks, 0xFFFFFFFFu, {}, octmask}, q, pool);
         }
     };
-    auto res = race(render, 5, p, o.runs);
+    auto res = race(render, kImpls, p, o.runs);
     double pixels = double(o.width) * o.height;
     auto add = [&](const std::string& impl, const std::string& metric, double v, const std::string& unit) {
         rec.push_back({c.name, impl, metric, v, unit});
@@ -206,17 +216,18 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     add("octree", "octree_nodes", double(t.nodes.size()), "nodes");
     add("octree", "index_bytes", double(full.size() * 4), "bytes");
     add("octree", "brick_bytes", double(t.brick_bytes()), "bytes");
+    add("octree", "octant_ranges_ms", octant_ranges_ms, "ms");
     add("octree-lod", "cut_nodes", cut.nodes, "nodes");
     add("octree-lod", "cut_leaves", cut.leaves, "nodes");
     add("iso-lod", "cut_nodes", cut_iso.nodes, "nodes");
-    for (std::size_t i = 0; i < 5; ++i) {
+    for (std::size_t i = 0; i < kImpls; ++i) {
         add(names[i], "rays_per_s", pixels / (res[i].second / 1e3), "rays/s");
         add(names[i], "speedup_vs_marcher", res[0].second / res[i].second, "x");
         double steps = 0.0;
         for (std::uint32_t s : res[i].first.steps) steps += s;
         add(names[i], "samples_per_ray", steps / pixels, "samples");
     }
-    for (std::size_t i = 1; i < 3; ++i) {
+    for (std::size_t i : {1u, 2u, 5u, 6u}) {
         ImageDifference d = compare_frames(res[0].first, res[i].first);
         add(names[i], "pixels_differing_vs_marcher", double(d.pixels_differing), "pixels");
         add(names[i], "psnr_vs_marcher", std::isfinite(d.psnr) ? d.psnr : 999.0, "dB (999: identical)");

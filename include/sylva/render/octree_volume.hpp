@@ -42,6 +42,10 @@ struct OctreeView {
     /// renderers set word n to 1 for every cut leaf n a ray reached before terminating. The
     /// out-of-core working set reads it (sylva/octree/residency.hpp: Residency::feedback()).
     std::span<std::uint32_t> seen = {};
+    /// Octant masks for the frame's transfer function (sylva/octree/octants.hpp: one word per
+    /// node); when not empty the DVR skips the octants of leaves the TF leaves empty (the same
+    /// image, fewer samples). Empty: every octant of a visible leaf is sampled.
+    std::span<const std::uint32_t> octmask = {};
 };
 
 /// The TF's opacity prefix counts (sylva/shared/octree_dvr.h): entries + 1 words, word i = the
@@ -85,10 +89,15 @@ Frame render_octree_dvr_cpu(const OctreeView& o, const VolumeRenderParams& p, X&
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     shared::SylvaOctHeader h = detail::octree_header(o);
     shared::SeenWords seen{o.seen.data(), o.seen.size()};
+    if (!o.octmask.empty() && o.octmask.size() != h.node_count)
+        throw Error("render: " + std::to_string(o.octmask.size()) + " octant masks for " + std::to_string(h.node_count) +
+                    " octree nodes");
+    shared::Words mw{o.octmask.data(), o.octmask.size()};
+    const std::uint32_t use_mask = o.octmask.empty() ? 0u : 1u;
     return detail::render_pixels(p, exec, [&](vec3 org, vec3 dir, std::uint32_t& steps) {
         std::uint32_t visits, status;
-        vec4 c = shared::sylva_oct_dvr_ray_seen(ow, bw, tw, sw, sp, h, o.max_level, org, dir, 0.0f, shared::sylva_inf(), seen,
-                                                steps, visits, status);
+        vec4 c = shared::sylva_oct_dvr_ray_masked(ow, bw, tw, sw, mw, use_mask, sp, h, o.max_level, org, dir, 0.0f,
+                                                  shared::sylva_inf(), seen, steps, visits, status);
         if (status == SYLVA_ITER_ERROR) steps = 0xFFFFFFFFu;
         return c;
     });

@@ -49,6 +49,8 @@ struct SeenWords {
 };
 #define SYLVA_SEEN(name) const ::sylva::shared::SeenWords& name
 #define SYLVA_OCT_NO_SEEN ::sylva::shared::SeenWords{}
+/// No octant masks (sylva_oct_dvr_ray_masked below): every octant of a visible leaf is sampled.
+#define SYLVA_OCT_NO_OCTMASK ::sylva::shared::Words{}
 /// Marks node as reached (out-of-range nodes are ignored).
 inline void sylva_oct_mark_seen(SYLVA_SEEN(seen), uint node) {
     if (seen.data != nullptr && node < seen.size)
@@ -58,6 +60,7 @@ inline void sylva_oct_mark_seen(SYLVA_SEEN(seen), uint node) {
 #else
 #define SYLVA_SEEN(name) uint name
 #define SYLVA_OCT_NO_SEEN 0u
+#define SYLVA_OCT_NO_OCTMASK 0u
 void sylva_oct_mark_seen(uint seen, uint node) {
 #ifdef SYLVA_OCT_SEEN_STORE
     sylva_oct_store_seen(node);
@@ -179,6 +182,71 @@ SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bric
     }
 }
 
+/// Octant masks (sylva/octree/octants.hpp builds them once a transfer function): one word per
+/// node, bit o (octant o = x | y << 1 | z << 2 of the node's brick, B/2 voxels of its level a
+/// side) set when the TF gives some opacity to the densities trilinear sampling inside that
+/// octant can return (its voxels and one around, as the node's [min, max]). A leaf's samples in
+/// an octant whose bit is clear all have zero opacity, so skipping them changes nothing: the
+/// image stays the marcher's bit for bit; only `steps` counts fewer samples. The pieces of the
+/// ray between the leaf's mid-planes each lie in one octant; a sample rounded across a plane
+/// reads voxels within the margin of one the octant ranges include. Mask 255: sample it all.
+/// In GLSL the masks are read only with SYLVA_OCT_OCTMASK defined (and `sylva_load_octmask`).
+SYLVA_FN uint sylva_oct_octant_mask(SYLVA_BUF(octmask), uint use_mask, uint node) {
+#if defined(__cplusplus) || defined(SYLVA_OCT_OCTMASK)
+    if (use_mask != 0u) return SYLVA_LOAD(octmask, node) & 255u;
+#endif
+    return 255u;
+}
+
+/// Samples leaf piece [t_lo, t_hi) octant by octant, skipping octants whose bit in `mask` is
+/// clear (see above); `it` is the walk, standing on the leaf.
+SYLVA_FN void sylva_oct_dvr_octants(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p,
+                                    SylvaOctBrick b, SylvaOctIter it, uint mask, vec3 origin, vec3 d, float t_lo,
+                                    float t_hi, float dt, float units, SYLVA_INOUT(uint) steps) {
+    if (mask == 255u) {
+        sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, t_hi, dt, units, steps);
+        return;
+    }
+    if (mask == 0u) return;
+    float half_width = float(sylva_oct_width(it.hdr, it.level) / 2u);
+    vec3 mid = vec3(float(it.coord.x * sylva_oct_width(it.hdr, it.level)) + half_width,
+                    float(it.coord.y * sylva_oct_width(it.hdr, it.level)) + half_width,
+                    float(it.coord.z * sylva_oct_width(it.hdr, it.level)) + half_width);
+    // Where the ray crosses the three mid-planes inside the piece, in order (+inf: not inside).
+    float c0 = sylva_inf();
+    float c1 = sylva_inf();
+    float c2 = sylva_inf();
+    for (uint k = 0u; k < 3u; k++) {
+        float t = sylva_inf();
+        if (sylva_kd_pick_u(it.parallel, k) == 0u)
+            t = sylva_canon((sylva_kd_pick(mid, k) - sylva_kd_pick(it.org, k)) * sylva_kd_pick(it.rcp, k));
+        if (!(t > t_lo && t < t_hi)) t = sylva_inf();
+        if (t < c0) {
+            c2 = c1;
+            c1 = c0;
+            c0 = t;
+        } else if (t < c1) {
+            c2 = c1;
+            c1 = t;
+        } else if (t < c2) {
+            c2 = t;
+        }
+    }
+    vec3 vd = vec3(d.x * it.hdr.inv_spacing.x, d.y * it.hdr.inv_spacing.y, d.z * it.hdr.inv_spacing.z);
+    float a = t_lo;
+    for (uint i = 0u; i < 4u && a < t_hi; i++) {
+        float e = (i == 0u) ? c0 : ((i == 1u) ? c1 : ((i == 2u) ? c2 : t_hi));
+        e = sylva_min(e, t_hi);
+        if (!(e > a)) continue;
+        float tm = 0.5f * a + 0.5f * e;
+        vec3 x = vec3(it.org.x + tm * vd.x, it.org.y + tm * vd.y, it.org.z + tm * vd.z);
+        uint o = ((x.x >= mid.x) ? 1u : 0u) | ((x.y >= mid.y) ? 2u : 0u) | ((x.z >= mid.z) ? 4u : 0u);
+        if (((mask >> o) & 1u) != 0u)
+            sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, a, e, dt, units, steps);
+        a = e;
+    }
+}
+
 /// The lattice step in a brick of coarse level s (voxels 2^s wide): dt * 2^s (section 5.3:
 /// "stepping by a discrete number of intervals, which are directly associated to octree
 /// levels"). Exact in float, so a coarse lattice is every 2^s-th point of the fine one; the
@@ -193,10 +261,13 @@ SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SylvaDvr
 }
 
 /// sylva_oct_dvr_ray that also marks in `seen` every cut leaf the ray reached before it
-/// terminated (the `visits` leaves; visibility feedback, top of this header).
-SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
-                                     SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
-                                     SYLVA_SEEN(seen), SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
+/// terminated (the `visits` leaves; visibility feedback, top of this header) and, with
+/// use_octmask 1, skips the octants of leaves that `octmask` marks empty (the same image).
+SYLVA_FN vec4 sylva_oct_dvr_ray_masked(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum),
+                                       SYLVA_BUF(octmask), uint use_octmask, SylvaDvrParams p, SylvaOctHeader h,
+                                       uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+                                       SYLVA_SEEN(seen), SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits,
+                                       SYLVA_OUT(uint) status) {
     steps = 0u;
     visits = 0u;
     status = SYLVA_ITER_DONE;
@@ -227,7 +298,9 @@ SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_
             b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, node, it.level, it.coord);
             dt = sylva_oct_level_dt(p.dt, h.levels - 1u - it.level);
             units = dt / p.unit;
-            sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, t1, dt, units, steps);
+            uint mask = sylva_oct_octant_mask(SYLVA_PASS_BUF(octmask), use_octmask, node);
+            sylva_oct_dvr_octants(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, it, mask, origin, d, t_lo, t1, dt,
+                                  units, steps);
         }
         t_lo = t1;
     }
@@ -236,6 +309,15 @@ SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_
         sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, span.y, dt, units, steps);
     status = it.status;
     return sylva_dvr_result(acc);
+}
+
+/// sylva_oct_dvr_ray_masked without octant masks.
+SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
+                                     SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+                                     SYLVA_SEEN(seen), SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
+    return sylva_oct_dvr_ray_masked(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), SYLVA_PASS_BUF(tfsum),
+                                    SYLVA_OCT_NO_OCTMASK, 0u, p, h, max_level, origin, direction, t_min, t_max, seen, steps,
+                                    visits, status);
 }
 
 /// Renders one ray origin + t * direction (normalised here) over [t_min, t_max] through the
