@@ -10,9 +10,11 @@
 // bits) and the number of lattice samples taken (0xFFFFFFFF where the index was found corrupt).
 // 9 visibility feedback, one word per node: set to 1 for every cut leaf a ray reached before it
 // terminated (sylva/shared/octree_dvr.h; written only when the push constant `feedback` is 1,
-// else a 4-byte dummy is bound and nothing is written).
+// else a 4-byte dummy is bound and nothing is written). 10 octant masks, one word per node
+// (sylva/octree/octants.hpp; read only when the push constant `octmask` is 1, else a dummy).
 // Push constants: max level (the cut), the brick buffer's word count (its parts are split),
-// mode (0 DVR, 1 iso; the iso value is the parameter block's), feedback (1: write binding 9).
+// mode (0 DVR, 1 iso; the iso value is the parameter block's), feedback (1: write binding 9),
+// octmask (1: DVR skips the octants binding 10 marks empty).
 // Specialization constants: 0 split shift of the bricks, 1 parts holding data (1: fast loads).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -27,11 +29,13 @@ layout(std430, binding = 6) readonly buffer TfSum { uint tfsum_words[]; };
 layout(std430, binding = 7) readonly buffer Params { uint param_words[]; };
 layout(std430, binding = 8) writeonly buffer Pixels { uint pixels[]; };
 layout(std430, binding = 9) buffer Seen { uint seen_words[]; };
+layout(std430, binding = 10) readonly buffer OctMask { uint octmask_words[]; };
 layout(push_constant) uniform Push {
     uint max_level;
     uint brick_buffer_words;
     uint mode;
     uint feedback;
+    uint octmask;
 } pc;
 
 #define SYLVA_OCT_SEEN_STORE
@@ -43,6 +47,8 @@ uint sylva_load_words(uint i) { return i < uint(index_words.length()) ? index_wo
 uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
 uint sylva_load_tfsum(uint i) { return i < uint(tfsum_words.length()) ? tfsum_words[i] : 0u; }
 uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+#define SYLVA_OCT_OCTMASK
+uint sylva_load_octmask(uint i) { return i < uint(octmask_words.length()) ? octmask_words[i] : 255u; }
 // grid_sample.h (whose arithmetic the bricks reuse) declares grid reads too; none happen here.
 uint sylva_load_grid(uint i) { return 0u; }
 
@@ -67,8 +73,8 @@ void main() {
     if (pc.mode == 1u) {
         c = sylva_oct_iso_ray_seen(0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), 0u, steps, visits, status);
     } else {
-        c = sylva_oct_dvr_ray_seen(0u, 0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), 0u, steps, visits,
-                                   status);
+        c = sylva_oct_dvr_ray_masked(0u, 0u, 0u, 0u, 0u, pc.octmask, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), 0u,
+                                     steps, visits, status);
     }
     uint at = (px.y * p.width + px.x) * 5u;
     pixels[at] = floatBitsToUint(c.x);

@@ -18,6 +18,7 @@
 #include <sylva/octree/build.hpp>
 #include <sylva/octree/cut.hpp>
 #include <sylva/octree/encode.hpp>
+#include <sylva/octree/octants.hpp>
 #include <sylva/render/image.hpp>
 #include <sylva/render/octree_volume.hpp>
 #include <sylva/volume/grid.hpp>
@@ -58,8 +59,11 @@ inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid&
         for (const octree::Node& n : tree.nodes) cut.leaves += n.leaf() ? 1u : 0u;
         cut.deepest = tree.levels - 1u;
     }
+    // Octant masks for the TF (octree/octants.hpp): DVR skips the empty octants of leaves.
+    std::vector<std::uint32_t> octmask;
+    if (!iso) octmask = octree::octant_masks(octree::octant_ranges(words, tree.bricks, pool), tf_opacity_prefix(vp.tf));
     s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    OctreeView view{words, tree.bricks};
+    OctreeView view{words, tree.bricks, 0xFFFFFFFFu, {}, octmask};
     Frame f;
     if (o.backend == "cpu") {
         s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
@@ -70,7 +74,7 @@ inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid&
         s.device = ctx.describe();
         vk::DeviceOctree dev(ctx, view);
         f = best_of(o.repeat, [&] {
-            return iso ? vk::render_octree_iso_vulkan(ctx, dev, vp) : vk::render_octree_dvr_vulkan(ctx, dev, vp);
+            return iso ? vk::render_octree_iso_vulkan(ctx, dev, vp) : vk::render_octree_dvr_vulkan(ctx, dev, vp, {}, octmask);
         });
 #else
         throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");

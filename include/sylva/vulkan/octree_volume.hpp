@@ -77,13 +77,30 @@ public:
         if (!dummy_) dummy_.emplace(ctx, 4);
         return *dummy_;
     }
+    /// The octant masks (one word per node, sylva/octree/octants.hpp), uploaded when they
+    /// change; a 4-byte dummy when `masks` is empty (the kernel then reads none).
+    Buffer& octant_masks(Context& ctx, std::span<const std::uint32_t> masks) {
+        if (masks.empty()) {
+            if (!mask_dummy_) mask_dummy_.emplace(ctx, 4);
+            return *mask_dummy_;
+        }
+        if (masks.size() != header_.node_count)
+            throw Error("vulkan octree: " + std::to_string(masks.size()) + " octant masks for " +
+                        std::to_string(header_.node_count) + " octree nodes");
+        if (!masks_ || masks_->size_bytes() != masks.size() * 4) masks_.emplace(ctx, masks.size() * 4);
+        if (!std::equal(masks.begin(), masks.end(), mask_words_.begin(), mask_words_.end())) {
+            masks_->upload(masks);
+            mask_words_.assign(masks.begin(), masks.end());
+        }
+        return *masks_;
+    }
     [[nodiscard]] const shared::SylvaOctHeader& header() const { return header_; }
     [[nodiscard]] std::uint32_t brick_words() const { return brick_words_; }
     [[nodiscard]] std::uint32_t max_level() const { return max_level_; }
     /// The kernel for this octree's brick split, built on first use and kept.
     Kernel& kernel(Context& ctx) {
         std::array<std::uint32_t, 2> constants{bricks_.shift, parts_};
-        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 10, 16, constants);
+        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 11, 20, constants);
         return *kernel_;
     }
     [[nodiscard]] Buffer* brick_part(std::size_t i) { return &bricks_.parts[i]; }
@@ -127,7 +144,8 @@ private:
     std::uint32_t max_level_;
     std::vector<std::uint32_t> header_words_;
     std::optional<Kernel> kernel_;
-    std::optional<Buffer> seen_, dummy_;
+    std::optional<Buffer> seen_, dummy_, masks_, mask_dummy_;
+    std::vector<std::uint32_t> mask_words_;  ///< what masks_ holds
 };
 
 /// The device pool of sylva/octree/residency.hpp on a DeviceOctree: slot s is brick words
@@ -143,7 +161,7 @@ struct DeviceBrickPool {
 namespace detail {
 
 inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p, std::uint32_t mode,
-                                  std::span<std::uint32_t> seen) {
+                                  std::span<std::uint32_t> seen, std::span<const std::uint32_t> octmask) {
     std::vector<std::uint32_t> params = sylva::detail::pack_dvr(oct.header().dims, oct.header().spacing, p);
     std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
     Buffer tf(ctx, p.tf.size() * 4), sum(ctx, tfsum.size() * 4), pb(ctx, params.size() * 4),
@@ -152,9 +170,12 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
     sum.upload(tfsum);
     pb.upload(params);
     Buffer& fb = seen.empty() ? oct.no_feedback(ctx) : oct.feedback(ctx, seen.size());
-    std::array<Buffer*, 10> bind{oct.brick_part(0), oct.brick_part(1), oct.brick_part(2), oct.brick_part(3), oct.index(),
-                                 &tf,               &sum,              &pb,               &out,              &fb};
-    std::array<std::uint32_t, 4> push{oct.max_level(), oct.brick_words(), mode, seen.empty() ? 0u : 1u};
+    Buffer& mb = oct.octant_masks(ctx, octmask);
+    std::array<Buffer*, 11> bind{oct.brick_part(0), oct.brick_part(1), oct.brick_part(2), oct.brick_part(3), oct.index(),
+                                 &tf,               &sum,              &pb,               &out,              &fb,
+                                 &mb};
+    std::array<std::uint32_t, 5> push{oct.max_level(), oct.brick_words(), mode, seen.empty() ? 0u : 1u,
+                                      octmask.empty() ? 0u : 1u};
     Frame f{p.width, p.height, std::vector<vec4>(std::size_t{p.width} * p.height),
             std::vector<std::uint32_t>(std::size_t{p.width} * p.height), 0.0};
     f.ms = ctx.dispatch(oct.kernel(ctx), bind, push.data(), sizeof push, groups_for(p.width, 8), groups_for(p.height, 8));
@@ -176,17 +197,18 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
 /// Renders the octree on the device with its view's cut; same output as render_octree_dvr_cpu
 /// (lattice samples, statuses exact; colours within the transcendentals' few ulp).
 /// With `seen` (one word per node) the visibility feedback of sylva/shared/octree_dvr.h is
-/// OR-ed into it (nonzero: a ray reached the cut leaf).
+/// OR-ed into it (nonzero: a ray reached the cut leaf). With `octmask` (one word per node,
+/// sylva/octree/octants.hpp) empty octants of leaves are skipped: the same image, fewer samples.
 inline Frame render_octree_dvr_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p,
-                                      std::span<std::uint32_t> seen = {}) {
-    return detail::render_octree_vulkan(ctx, oct, p, 0u, seen);
+                                      std::span<std::uint32_t> seen = {}, std::span<const std::uint32_t> octmask = {}) {
+    return detail::render_octree_vulkan(ctx, oct, p, 0u, seen, octmask);
 }
 
 /// The first hit of p.iso on the device; same output as render_octree_iso_cpu (hits and samples
 /// exact; colours within the shading's transcendentals' few ulp).
 inline Frame render_octree_iso_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p,
                                       std::span<std::uint32_t> seen = {}) {
-    return detail::render_octree_vulkan(ctx, oct, p, 1u, seen);
+    return detail::render_octree_vulkan(ctx, oct, p, 1u, seen, {});
 }
 
 }  // namespace sylva::vk
