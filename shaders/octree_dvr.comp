@@ -81,5 +81,10 @@ void main() {
     pixels[at + 1u] = floatBitsToUint(c.y);
     pixels[at + 2u] = floatBitsToUint(c.z);
     pixels[at + 3u] = floatBitsToUint(c.w);
-    pixels[at + 4u] = (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps;
+    // Lavapipe ends every loop of an invocation, silently, once 65,535 loop iterations have run
+    // in all loops together. The DVR walk stops RUNNING only at early ray termination (alpha >=
+    // alpha_stop; the host never returns RUNNING otherwise), so RUNNING below alpha_stop is a ray
+    // the limiter cut short: marked as an error, never written as a short colour.
+    bool cut_short = pc.mode == 0u && status == SYLVA_ITER_RUNNING && !(c.w >= p.alpha_stop);
+    pixels[at + 4u] = (status == SYLVA_ITER_ERROR || cut_short) ? 0xFFFFFFFFu : steps;
 }
