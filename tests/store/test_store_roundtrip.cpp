@@ -54,7 +54,7 @@ TEST_CASE("a stored in-core tree reads back word for word, every codec", "[store
     }
 }
 
-TEST_CASE("reads from several threads at once", "[store]") {
+TEST_CASE("reads from several threads at once", "[store][concurrency]") {
     TempDir dir;
     octree::TreeBrickSource ref(small_tree());
     store::write_tree(ref.tree(), dir / "s");
