@@ -15,17 +15,13 @@
 #include <sylva/render/volume.hpp>
 #include <sylva/volume/procedural.hpp>
 
+#include "frames.hpp"
 #include "reference.hpp"
 
 using namespace sylva;
 using namespace octree_test;
 
 namespace {
-
-std::uint32_t rgba8(float r, float g, float b, float a) {
-    auto q = [](float v) { return std::uint32_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
-    return q(r) | q(g) << 8 | q(b) << 16 | q(a) << 24;
-}
 
 /// A TF transparent below `lo`, then a ramp of colour and opacity.
 std::vector<std::uint32_t> ramp_tf(float lo, float alpha) {
@@ -47,23 +43,6 @@ VolumeRenderParams params(const volume::DensityGrid& g, std::uint32_t size, vec3
 }
 
 /// Pixels whose RGBA bits differ.
-std::size_t differing(const Frame& a, const Frame& b) {
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < a.rgba.size(); ++i)
-        for (int c = 0; c < 4; ++c)
-            if (std::bit_cast<std::uint32_t>(a.rgba[i][c]) != std::bit_cast<std::uint32_t>(b.rgba[i][c])) {
-                ++n;
-                break;
-            }
-    return n;
-}
-
-double max_diff(const Frame& a, const Frame& b) {
-    double m = 0.0;
-    for (std::size_t i = 0; i < a.rgba.size(); ++i)
-        for (int c = 0; c < 4; ++c) m = std::max(m, double(std::abs(a.rgba[i][c] - b.rgba[i][c])));
-    return m;
-}
 
 double opacity_sum(const Frame& f) {
     double s = 0.0;

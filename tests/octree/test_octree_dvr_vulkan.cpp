@@ -15,21 +15,12 @@
 #include <sylva/vulkan/octree_volume.hpp>
 #include <sylva/vulkan/volume.hpp>
 
+#include "frames.hpp"
 #include "reference.hpp"
 
 using namespace sylva;
 using namespace octree_test;
 
-namespace {
-
-double max_diff(const Frame& a, const Frame& b) {
-    double m = 0.0;
-    for (std::size_t i = 0; i < a.rgba.size(); ++i)
-        for (int c = 0; c < 4; ++c) m = std::max(m, double(std::abs(a.rgba[i][c] - b.rgba[i][c])));
-    return m;
-}
-
-}  // namespace
 
 TEST_CASE("vulkan: octree DVR on the device equals the host renderer", "[parity][dvr]") {
     vk::Context ctx = vk::Context::create();

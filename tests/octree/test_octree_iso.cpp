@@ -17,6 +17,7 @@
 #include <sylva/shared/dvr.h>
 #include <sylva/volume/procedural.hpp>
 
+#include "frames.hpp"
 #include "reference.hpp"
 
 using namespace sylva;
@@ -66,23 +67,6 @@ Frame render_grid_iso(const volume::DensityGrid& g, const VolumeRenderParams& p,
     return detail::render_pixels(p, exec, [&](vec3 o, vec3 d, std::uint32_t& steps) { return grid_iso(grid, tw, sp, o, d, steps); });
 }
 
-std::size_t differing(const Frame& a, const Frame& b) {
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < a.rgba.size(); ++i)
-        for (int c = 0; c < 4; ++c)
-            if (std::bit_cast<std::uint32_t>(a.rgba[i][c]) != std::bit_cast<std::uint32_t>(b.rgba[i][c])) {
-                ++n;
-                break;
-            }
-    return n;
-}
-
-std::uint64_t total(const Frame& f) {
-    std::uint64_t s = 0;
-    for (std::uint32_t v : f.steps) s += v;
-    return s;
-}
-
 VolumeRenderParams iso_params(const volume::DensityGrid& g, std::uint32_t size, vec3 view, float iso) {
     VolumeRenderParams p;
     p.camera = Camera::framing(g.world_box(), view, 35.0f).frame(size, size);
@@ -120,9 +104,9 @@ TEST_CASE("octree iso: the full-resolution cut renders the grid iso marcher's im
         CHECK(differing(ref, oct) == 0);
         pixels += ref.rgba.size();
         for (const vec4& v : ref.rgba) hits += v.w == 1.0f ? 1 : 0;
-        CHECK(total(oct) <= total(ref));
-        ref_steps += total(ref);
-        oct_steps += total(oct);
+        CHECK(total_samples(oct) <= total_samples(ref));
+        ref_steps += total_samples(ref);
+        oct_steps += total_samples(oct);
     }
     // Range culling: fewer samples than the marcher's (which tests every lattice point).
     CHECK(oct_steps < ref_steps);
@@ -141,8 +125,8 @@ TEST_CASE("octree iso: range culling skips leaves, the image unchanged", "[octre
     Frame culled = render_octree_iso_cpu(OctreeView{words, t.bricks}, p, pool);
     Frame all = render_octree_iso_cpu(OctreeView{uncull, t.bricks}, p, pool);
     CHECK(differing(culled, all) == 0);
-    INFO("samples culled " << total(culled) << ", not culled " << total(all));
-    CHECK(total(culled) < total(all) * 3 / 4);
+    INFO("samples culled " << total_samples(culled) << ", not culled " << total_samples(all));
+    CHECK(total_samples(culled) < total_samples(all) * 3 / 4);
     std::size_t hits = 0;
     for (const vec4& v : culled.rgba) hits += v.w == 1.0f ? 1 : 0;
     CHECK(hits > 200);

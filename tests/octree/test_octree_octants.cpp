@@ -18,17 +18,13 @@
 #include <sylva/render/volume.hpp>
 #include <sylva/volume/procedural.hpp>
 
+#include "frames.hpp"
 #include "reference.hpp"
 
 using namespace sylva;
 using namespace octree_test;
 
 namespace {
-
-std::uint32_t rgba8(float r, float g, float b, float a) {
-    auto q = [](float v) { return std::uint32_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
-    return q(r) | q(g) << 8 | q(b) << 16 | q(a) << 24;
-}
 
 /// Transparent below `lo`, a ramp of opacity above.
 std::vector<std::uint32_t> ramp_tf(float lo) {
@@ -38,23 +34,6 @@ std::vector<std::uint32_t> ramp_tf(float lo) {
         tf[i] = rgba8(0.3f + 0.7f * d, 0.8f - 0.4f * d, 0.5f, d <= lo ? 0.0f : 0.35f * (d - lo) / (1.0f - lo));
     }
     return tf;
-}
-
-std::size_t differing(const Frame& a, const Frame& b) {
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < a.rgba.size(); ++i)
-        for (int c = 0; c < 4; ++c)
-            if (std::bit_cast<std::uint32_t>(a.rgba[i][c]) != std::bit_cast<std::uint32_t>(b.rgba[i][c])) {
-                ++n;
-                break;
-            }
-    return n;
-}
-
-std::uint64_t samples(const Frame& f) {
-    std::uint64_t s = 0;
-    for (std::uint32_t v : f.steps) s += v;
-    return s;
 }
 
 /// Brute force: the min/max of coarse voxels [c B + o B/2 - 1, c B + o B/2 + B/2] (clamped to
@@ -139,8 +118,8 @@ TEST_CASE("octant-masked DVR renders the unmasked image bit for bit with fewer s
                     if (max_level == 0xFFFFFFFFu && (c.cfg.border == 2 || !shading))
                         CHECK(differing(render_dvr_cpu(gw, p, pool), masked) == 0);
                     for (std::size_t i = 0; i < plain.steps.size(); ++i) REQUIRE(masked.steps[i] <= plain.steps[i]);
-                    masked_total += samples(masked);
-                    plain_total += samples(plain);
+                    masked_total += total_samples(masked);
+                    plain_total += total_samples(plain);
                 }
     }
     INFO("samples: masked " << masked_total << ", plain " << plain_total);
