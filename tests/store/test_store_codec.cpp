@@ -22,9 +22,9 @@ std::vector<std::uint32_t> sample_brick(std::size_t n, unsigned seed) {
         v = std::min(1.0f, std::max(0.0f, v + 0.01f * (u(rng) - 0.5f)));
         w[i] = std::bit_cast<std::uint32_t>(v);
     }
-    w[0] = std::bit_cast<std::uint32_t>(-0.0f);
-    w[1] = 1u;  // denormal
-    w[2] = std::bit_cast<std::uint32_t>(1.0f);
+    const std::uint32_t special[3] = {std::bit_cast<std::uint32_t>(-0.0f), 1u /* denormal */,
+                                      std::bit_cast<std::uint32_t>(1.0f)};
+    for (std::size_t i = 0; i < 3 && i < n; ++i) w[i] = special[i];  // bricks of 1 word too
     return w;
 }
 }  // namespace
