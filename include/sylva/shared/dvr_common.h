@@ -28,20 +28,42 @@
 //   28-30  grid dimensions in voxels (marcher)
 //   31-33  voxel size in world units (grid spacing; the BIH leaves' voxel size)
 //   34     word count of the encoded BIH (BIH modes)
-//   35     reserved, 0
+//   35     ray source: SYLVA_RAYS_* (pinhole camera from words 0-11, orthographic camera from
+//          words 0-11, or the caller's ray buffer)
+//   36     transfer function kind: SYLVA_TF_KIND_* (RGBA8 table, float RGBA table, shader hook)
+//   37     opacity correction: SYLVA_OPACITY_* (exact power of Kinkelin 4.3, or none)
+//   38     border mode of the grid samplers: SYLVA_BORDER_* (clamp to edge, or a constant)
+//   39     border value (float bits; the normalised density read outside the grid)
+//   40     grid voxel format: SYLVA_GRID_* (float32, uint8, uint16)
+//   41     value offset lo (float bits): density = (raw - lo) / (hi - lo) for integer formats
+//   42     value span hi - lo (float bits, > 0; the division is exact as written, v / max)
+//   43-47  reserved, 0
 #ifndef SYLVA_SHARED_DVR_COMMON_H
 #define SYLVA_SHARED_DVR_COMMON_H
 
 #include "sylva/shared/lang.h"
 #include "sylva/shared/tf.h"
 
-#define SYLVA_DVR_PARAM_WORDS 36u
+#define SYLVA_DVR_PARAM_WORDS 48u
 #define SYLVA_VOLUME_MODE_DVR 0u
 #define SYLVA_VOLUME_MODE_BIH_SINGLE 1u
 #define SYLVA_VOLUME_MODE_BIH_MULTI 2u
 #define SYLVA_VOLUME_MODE_BIH_ISO 3u
 #define SYLVA_DVR_FLAG_SHADING 1u
 #define SYLVA_DVR_FLAG_ISO_CULLING 2u
+#define SYLVA_RAYS_PINHOLE 0u
+#define SYLVA_RAYS_ORTHO 1u
+#define SYLVA_RAYS_BUFFER 2u
+#define SYLVA_TF_KIND_RGBA8 0u
+#define SYLVA_TF_KIND_RGBA32F 1u
+#define SYLVA_TF_KIND_HOOK 2u
+#define SYLVA_OPACITY_POWER 0u
+#define SYLVA_OPACITY_NONE 1u
+#define SYLVA_BORDER_CLAMP 0u
+#define SYLVA_BORDER_CONSTANT 1u
+#define SYLVA_GRID_F32 0u
+#define SYLVA_GRID_U8 1u
+#define SYLVA_GRID_U16 2u
 /// Hard cap on the samples of one ray (loops stay bounded whatever the parameters).
 #define SYLVA_DVR_MAX_SAMPLES 16777216u
 
@@ -66,6 +88,14 @@ struct SylvaDvrParams {
     uvec3 dims;
     vec3 spacing;
     uint word_count;
+    uint ray_source;
+    uint tf_kind;
+    uint opacity;
+    uint border;
+    float border_value;
+    uint grid_format;
+    float value_lo;
+    float value_span;
 };
 
 SYLVA_FN float sylva_param_f(SYLVA_BUF(params), uint at) { return uintBitsToFloat(SYLVA_LOAD(params, at)); }
@@ -94,6 +124,14 @@ SYLVA_FN SylvaDvrParams sylva_dvr_params(SYLVA_BUF(params)) {
     p.dims = uvec3(SYLVA_LOAD(params, 28u), SYLVA_LOAD(params, 29u), SYLVA_LOAD(params, 30u));
     p.spacing = sylva_param_v3(SYLVA_PASS_BUF(params), 31u);
     p.word_count = SYLVA_LOAD(params, 34u);
+    p.ray_source = SYLVA_LOAD(params, 35u);
+    p.tf_kind = SYLVA_LOAD(params, 36u);
+    p.opacity = SYLVA_LOAD(params, 37u);
+    p.border = SYLVA_LOAD(params, 38u);
+    p.border_value = sylva_param_f(SYLVA_PASS_BUF(params), 39u);
+    p.grid_format = SYLVA_LOAD(params, 40u);
+    p.value_lo = sylva_param_f(SYLVA_PASS_BUF(params), 41u);
+    p.value_span = sylva_param_f(SYLVA_PASS_BUF(params), 42u);
     return p;
 }
 
