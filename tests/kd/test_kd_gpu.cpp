@@ -286,7 +286,7 @@ TEST_CASE("device local boxes of the aneurism", "[parity][kd][data]") {
         REQUIRE(dev.boxes == host.boxes);
     }
     LocalBoxes dev = pass.local_boxes(volume::DensityThreshold{0.1f});
-    CHECK(dev.occupied == 113453u);  // Kinkelin Table 6 (DESIGN.md, Data)
+    CHECK(dev.occupied == 113453u);  // Kinkelin Table 6 (docs/DESIGN.md, Data)
     kdtree::Tree a = kdtree::build(dev, Config::deep().binned(), pool);
     kdtree::Tree b = kdtree::build_binned(volume::classified(v, volume::DensityThreshold{0.1f}), Config::deep().binned(), pool);
     REQUIRE(a.nodes == b.nodes);

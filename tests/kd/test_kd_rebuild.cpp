@@ -319,7 +319,7 @@ TEST_CASE("rebuild: aneurism under a replay of transfer functions", "[kd][rebuil
             INFO(tname);
             require_same_tree(r.rebuild(tf), fresh_build(v, volume::TransferFunctionAlpha(tf), cfg, pool));
         }
-        // Kinkelin's threshold: 113,453 voxels of value / 255 >= 0.1 (DESIGN.md, Data)
+        // Kinkelin's threshold: 113,453 voxels of value / 255 >= 0.1 (docs/DESIGN.md, Data)
         CHECK(r.rebuild(volume::DensityThreshold{0.1f}).stats.occupied == 113453u);
     }
 }

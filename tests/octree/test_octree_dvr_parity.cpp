@@ -1,7 +1,7 @@
 // Host vs Vulkan (lavapipe in CI): the shared octree DVR integrator (shaders/octree_dvr.comp)
 // gives the same samples, leaves and statuses exactly, and colours within the tolerance of the
 // transcendentals (exp2/log2 of the opacity correction and shading differ by a few ulp between
-// targets: DESIGN.md), for the full-resolution cut and a coarser one, shaded and not.
+// targets: docs/DESIGN.md), for the full-resolution cut and a coarser one, shaded and not.
 #include <catch2/catch.hpp>
 
 #include <array>

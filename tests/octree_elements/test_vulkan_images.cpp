@@ -2,7 +2,7 @@
 // sylva/vulkan/octree_particles.hpp) against the host renderer (sylva/render/octree_particles.hpp)
 // on the same encoding, records and camera: per pixel the same step count and error mark
 // exactly, and colours within 1e-5 (exp() and division may differ by a few ulp between the
-// host's libm and the device: DESIGN.md, Vulkan exactness). Spheres, RBFs, the synthetic galaxy
+// host's libm and the device: docs/DESIGN.md, What is exact where). Spheres, RBFs, the synthetic galaxy
 // and the dark-matter halo of ../shared/data; split bindings; corrupted encodings.
 #include <catch2/catch.hpp>
 

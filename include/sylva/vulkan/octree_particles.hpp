@@ -2,8 +2,8 @@
 // (shaders/octree_particles.comp, embedded SPIR-V running sylva/shared/octree_particles.h): the
 // device twin of render_particles_octree_cpu (sylva/render/octree_particles.hpp), same inputs,
 // same Frame. Step counts and error marks equal the host's; colours agree within the few ulp
-// by which exp() and division differ between the host and the device (DESIGN.md, Vulkan
-// exactness).
+// by which exp() and division differ between the host and the device (docs/DESIGN.md, What is
+// exact where).
 //
 //   auto ctx = sylva::vk::Context::create();
 //   sylva::vk::DeviceElementOctree oct(ctx, words, records);   // encode_elements + pack_particles
