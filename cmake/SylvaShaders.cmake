@@ -10,9 +10,22 @@
 # (or <OUTPUT_DIR>/sylva/spirv/<NAME>.h: tests put theirs outside the installed directory),
 # which defines `inline constexpr std::uint32_t sylva::spirv::<NAME>[]`. A depfile written by
 # glslangValidator makes edits to any #included header recompile the shader.
-# The custom target <target> (created when missing, ALL) builds every header registered with it;
-# C++ targets that include the headers do `add_dependencies(<exe> <target>)` and link
-# `sylva::vulkan` (which carries the include directory ${SYLVA_SPIRV_DIR}).
+#
+# <target> is either
+#  * an executable or library: the header is built before it and its directory is added to the
+#    target's include path, so `#include <sylva/spirv/<NAME>.h>` just works (the usual choice in
+#    a user's project), or
+#  * a custom target (created when missing, ALL) that builds every header registered with it;
+#    C++ targets that include the headers then do `add_dependencies(<exe> <target>)` and add the
+#    header directory themselves (the library's own shaders link `sylva::vulkan`, which carries
+#    ${SYLVA_SPIRV_DIR}).
+#
+# Two ways this file is used:
+#  * in sylva's own build tree (included by the top-level CMakeLists): -I is the source tree's
+#    include/ and the library targets sylva_vulkan (sylva::vulkan) are created here;
+#  * from an installed package (included by sylvaConfig.cmake with SYLVA_SHADERS_INSTALLED set):
+#    -I is the installed include/ directory, so a user's shader is compiled against exactly the
+#    shared headers that were installed; sylva::vulkan is the imported target.
 #
 # This file is also its own build-time helper: `cmake -DSYLVA_SPIRV_ARGS=<file> -P SylvaShaders.cmake`
 # runs one compilation described by <file> (written at configure time by sylva_add_spirv).
@@ -132,21 +145,37 @@ endif()
 
 # ---- configure time ----------------------------------------------------------------------------
 
-find_package(Vulkan REQUIRED COMPONENTS glslangValidator)
+if(SYLVA_SHADERS_INSTALLED)
+  # Installed package: glslangValidator is needed only once a shader is added (sylva::vulkan
+  # itself needs just the Vulkan loader), so its absence is reported by sylva_add_spirv.
+  find_package(Vulkan QUIET COMPONENTS glslangValidator)
+else()
+  find_package(Vulkan REQUIRED COMPONENTS glslangValidator)
+endif()
 find_program(SYLVA_SPIRV_VAL NAMES spirv-val DOC "spirv-val from SPIRV-Tools, validates every shader")
 if(NOT SYLVA_SPIRV_VAL)
   message(WARNING "spirv-val not found (install spirv-tools): shaders will not be validated")
 endif()
 
-set(SYLVA_SPIRV_DIR "${PROJECT_BINARY_DIR}/generated" CACHE PATH
-    "Where sylva_add_spirv writes the sylva/spirv/<name>.h headers")
-set(SYLVA_SHADER_INCLUDE_DIR "${PROJECT_SOURCE_DIR}/include" CACHE PATH
-    "The include root holding sylva/shared/*, passed to glslangValidator as -I")
+if(SYLVA_SHADERS_INSTALLED)
+  # The user's project: headers go to its build tree, shaders see the installed include root
+  # (not a cache entry, so a stale cache can never point glslang at some other sylva).
+  set(SYLVA_SPIRV_DIR "${CMAKE_BINARY_DIR}/sylva_generated" CACHE PATH
+      "Where sylva_add_spirv writes the sylva/spirv/<name>.h headers")
+  if(NOT IS_DIRECTORY "${SYLVA_SHADER_INCLUDE_DIR}/sylva/shared")
+    message(FATAL_ERROR "SylvaShaders.cmake: '${SYLVA_SHADER_INCLUDE_DIR}' holds no sylva/shared headers")
+  endif()
+else()
+  set(SYLVA_SPIRV_DIR "${PROJECT_BINARY_DIR}/generated" CACHE PATH
+      "Where sylva_add_spirv writes the sylva/spirv/<name>.h headers")
+  set(SYLVA_SHADER_INCLUDE_DIR "${PROJECT_SOURCE_DIR}/include" CACHE PATH
+      "The include root holding sylva/shared/*, passed to glslangValidator as -I")
+endif()
 set_property(GLOBAL PROPERTY SYLVA_SPIRV_DIR "${SYLVA_SPIRV_DIR}")
 set_property(GLOBAL PROPERTY SYLVA_SHADER_INCLUDE_DIR "${SYLVA_SHADER_INCLUDE_DIR}")
 
 # Whether this glslangValidator writes depfiles (glslang 12 does); cached per build tree.
-if(NOT DEFINED SYLVA_GLSLANG_HAS_DEPFILE)
+if(NOT DEFINED SYLVA_GLSLANG_HAS_DEPFILE AND Vulkan_GLSLANG_VALIDATOR_EXECUTABLE)
   execute_process(COMMAND "${Vulkan_GLSLANG_VALIDATOR_EXECUTABLE}" --help
                   OUTPUT_VARIABLE help ERROR_VARIABLE help RESULT_VARIABLE ignored)
   string(FIND "${help}" "--depfile" depfile_at)
@@ -158,14 +187,16 @@ if(NOT DEFINED SYLVA_GLSLANG_HAS_DEPFILE)
   set(SYLVA_GLSLANG_HAS_DEPFILE ${has_depfile} CACHE INTERNAL "glslangValidator supports --depfile")
 endif()
 
-if(NOT TARGET sylva_spirv)
+# The library's Vulkan target, exported as sylva::vulkan (cmake/SylvaInstall.cmake); an installed
+# package imports it from sylvaVulkanTargets.cmake instead.
+if(NOT SYLVA_SHADERS_INSTALLED AND NOT TARGET sylva_vulkan)
   add_library(sylva_spirv INTERFACE)
   target_include_directories(sylva_spirv INTERFACE $<BUILD_INTERFACE:${SYLVA_SPIRV_DIR}>)
-endif()
-if(NOT TARGET sylva_vulkan)
+  set_target_properties(sylva_spirv PROPERTIES EXPORT_NAME spirv)
   add_library(sylva_vulkan INTERFACE)
   add_library(sylva::vulkan ALIAS sylva_vulkan)
   target_link_libraries(sylva_vulkan INTERFACE sylva::sylva Vulkan::Vulkan sylva_spirv)
+  set_target_properties(sylva_vulkan PROPERTIES EXPORT_NAME vulkan)
 endif()
 
 # Checks sylva_add_spirv's arguments; fails configuration with a message naming the problem.
@@ -211,9 +242,22 @@ function(_sylva_spirv_flags include_root out_var)
   set(${out_var} "${flags}" PARENT_SCOPE)
 endfunction()
 
-# Makes <target> (created when missing) depend on the generated header.
-function(_sylva_spirv_attach target name header)
-  if(NOT TARGET ${target})
+# Makes <target> depend on the generated header: an executable or library gets the header's
+# directory on its include path; otherwise <target> is a custom target (created when missing).
+function(_sylva_spirv_attach target name header spirv_dir)
+  if(TARGET ${target})
+    get_target_property(type ${target} TYPE)
+    if(NOT type STREQUAL "UTILITY")
+      add_custom_target(${target}_spirv_${name} DEPENDS "${header}")
+      add_dependencies(${target} ${target}_spirv_${name})
+      if(type STREQUAL "INTERFACE_LIBRARY")
+        target_include_directories(${target} INTERFACE "${spirv_dir}")
+      else()
+        target_include_directories(${target} PRIVATE "${spirv_dir}")
+      endif()
+      return()
+    endif()
+  else()
     add_custom_target(${target} ALL)
   endif()
   get_target_property(target_dir ${target} SOURCE_DIR)
@@ -232,6 +276,10 @@ endfunction()
 function(sylva_add_spirv)
   cmake_parse_arguments(PARSE_ARGV 0 arg "" "TARGET;NAME;SOURCE;OUTPUT_DIR" "DEFINES;INCLUDE_DIRS")
   _sylva_spirv_check_arguments()
+  if(NOT Vulkan_GLSLANG_VALIDATOR_EXECUTABLE)
+    message(FATAL_ERROR "sylva_add_spirv(${arg_NAME}): glslangValidator not found "
+                        "(install glslang-tools, or set Vulkan_GLSLANG_VALIDATOR_EXECUTABLE)")
+  endif()
   get_property(spirv_dir GLOBAL PROPERTY SYLVA_SPIRV_DIR)
   if(arg_OUTPUT_DIR)
     get_filename_component(spirv_dir "${arg_OUTPUT_DIR}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_BINARY_DIR}")
@@ -276,5 +324,5 @@ set(SYLVA_SPIRV_VAL [[@SYLVA_SPIRV_VAL@]])
     ${depfile_option}
     COMMENT "Compiling ${source_name} to SPIR-V (sylva::spirv::${arg_NAME})"
     VERBATIM)
-  _sylva_spirv_attach(${arg_TARGET} ${arg_NAME} "${header}")
+  _sylva_spirv_attach(${arg_TARGET} ${arg_NAME} "${header}" "${spirv_dir}")
 endfunction()

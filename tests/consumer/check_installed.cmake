@@ -20,8 +20,11 @@ endfunction()
 # sylva_DIR, would hide exactly the mistakes this test exists to catch.
 file(REMOVE_RECURSE "${SYLVA_PREFIX}" "${CONSUMER_BUILD_DIR}")
 
+# The library's component only: the headers, SPIR-V and the package, not the tools (which need
+# not be built for this test).
 step("install ${SYLVA_BUILD_DIR} into ${SYLVA_PREFIX}"
-     "${CMAKE_COMMAND}" --install "${SYLVA_BUILD_DIR}" --prefix "${SYLVA_PREFIX}" --config "${CONSUMER_CONFIG}")
+     "${CMAKE_COMMAND}" --install "${SYLVA_BUILD_DIR}" --prefix "${SYLVA_PREFIX}" --config "${CONSUMER_CONFIG}"
+     --component sylva_library)
 
 set(generator_args "")
 if(CONSUMER_GENERATOR)
@@ -34,7 +37,10 @@ step("configure ${CONSUMER_SOURCE_DIR}"
      "${CMAKE_COMMAND}" -S "${CONSUMER_SOURCE_DIR}" -B "${CONSUMER_BUILD_DIR}" ${generator_args}
      "-DCMAKE_BUILD_TYPE=${CONSUMER_CONFIG}" "-DCMAKE_PREFIX_PATH=${SYLVA_PREFIX}"
      # Only the prefix may provide sylva: no user or system package registry.
-     -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF)
+     -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF
+     # A sylva built with Vulkan must install a working vulkan component (sylva::vulkan and
+     # sylva_add_spirv): the GPU half is then required, not skipped.
+     "-DCONSUMER_REQUIRE_VULKAN=${CONSUMER_REQUIRE_VULKAN}")
 
 # Prove the package came from our prefix, not from some other sylva installed on the machine.
 file(STRINGS "${CONSUMER_BUILD_DIR}/CMakeCache.txt" sylva_dir REGEX "^sylva_DIR:")
@@ -49,9 +55,23 @@ endif()
 step("build" "${CMAKE_COMMAND}" --build "${CONSUMER_BUILD_DIR}" --config "${CONSUMER_CONFIG}")
 
 # Single-config generators put the executable in the build root, multi-config ones in <config>/.
-set(exe "${CONSUMER_BUILD_DIR}/sylva_consumer")
-if(NOT EXISTS "${exe}")
-  set(exe "${CONSUMER_BUILD_DIR}/${CONSUMER_CONFIG}/sylva_consumer")
-endif()
+function(consumer_executable name out_var)
+  set(exe "${CONSUMER_BUILD_DIR}/${name}")
+  if(NOT EXISTS "${exe}")
+    set(exe "${CONSUMER_BUILD_DIR}/${CONSUMER_CONFIG}/${name}")
+  endif()
+  set(${out_var} "${exe}" PARENT_SCOPE)
+endfunction()
+consumer_executable(sylva_consumer exe)
 step("run ${exe}" "${exe}")
+
+# The GPU half: the user's shader compiled by the installed sylva_add_spirv, run on the device
+# SYLVA_VULKAN_DEVICE picks (lavapipe with =cpu), compared with the host.
+consumer_executable(sylva_consumer_gpu gpu_exe)
+if(CONSUMER_REQUIRE_VULKAN AND NOT EXISTS "${gpu_exe}")
+  message(FATAL_ERROR "consumer: the GPU half was not built (${gpu_exe} is missing)")
+endif()
+if(EXISTS "${gpu_exe}")
+  step("run ${gpu_exe}" "${gpu_exe}")
+endif()
 message(STATUS "consumer: the installed package works")

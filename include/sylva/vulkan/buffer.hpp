@@ -9,8 +9,10 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <ranges>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -254,6 +256,28 @@ private:
     std::size_t bytes_ = 0;
     VkDeviceSize allocated_ = 0;
 };
+
+/// A storage buffer holding `records` byte for byte: a user's element buffer (any contiguous
+/// range of a trivially copyable record type: a vector, an array, a span of float/uint words in
+/// the layout the user's shader reads with std430), a ray buffer, a table. An empty range gives
+/// a bindable 4-byte dummy.
+template <std::ranges::contiguous_range R>
+    requires std::ranges::sized_range<R> && std::is_trivially_copyable_v<std::ranges::range_value_t<R>>
+Buffer upload_buffer(Context& context, const R& records, BufferMemory memory = BufferMemory::automatic) {
+    const std::span<const std::ranges::range_value_t<R>> view(std::ranges::data(records), std::ranges::size(records));
+    Buffer buffer(context, view.size_bytes(), memory);
+    buffer.upload_bytes(std::as_bytes(view));
+    return buffer;
+}
+
+/// Downloads a whole buffer as records of T (size_bytes() / sizeof(T) of them).
+template <class T>
+    requires std::is_trivially_copyable_v<T>
+std::vector<T> download_records(const Buffer& buffer) {
+    std::vector<T> records(buffer.size_bytes() / sizeof(T));
+    buffer.download_bytes(std::as_writable_bytes(std::span<T>(records)));
+    return records;
+}
 
 }  // namespace sylva::vk
 

@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <fstream>
 #include <memory>
 #include <span>
 #include <string>
@@ -183,6 +184,22 @@ private:
     std::uint32_t buffer_count_ = 0;
     std::uint32_t push_bytes_ = 0;
 };
+
+/// Reads a SPIR-V module from a .spv file (for shaders compiled outside the build; embedded
+/// arrays from sylva_add_spirv need no file). Throws sylva::Error naming the file when it cannot
+/// be read or is not a whole number of 32-bit words; Kernel checks the words themselves.
+inline std::vector<std::uint32_t> read_spirv_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    if (!in) throw Error("read_spirv_file: cannot open '" + path + "'");
+    const std::streamoff bytes = in.tellg();
+    if (bytes <= 0 || bytes % 4 != 0)
+        throw Error("read_spirv_file: '" + path + "' has " + std::to_string(bytes) +
+                    " bytes, not a positive whole number of 32-bit words");
+    std::vector<std::uint32_t> words(static_cast<std::size_t>(bytes / 4));
+    in.seekg(0);
+    if (!in.read(reinterpret_cast<char*>(words.data()), bytes)) throw Error("read_spirv_file: cannot read '" + path + "'");
+    return words;
+}
 
 }  // namespace sylva::vk
 

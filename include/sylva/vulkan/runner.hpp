@@ -7,6 +7,17 @@
 //   std::array<sylva::vk::Buffer*, 2> buffers{&in, &out};
 //   double ms = context.dispatch(kernel, buffers, &push, sizeof push, sylva::vk::groups_for(n, 64));
 //   out.download(result);
+//
+// A user's own shader over an encoding and the user's elements (any encoding uploaded with
+// split_words binds as four consecutive buffers, see sylva/shared/split_words.glsl):
+//
+//   sylva::vk::SplitWords tree = sylva::vk::split_words(context, encoded_words);
+//   sylva::vk::Buffer elements = sylva::vk::upload_buffer(context, my_records);
+//   sylva::vk::Bindings bindings;
+//   bindings.add(tree).add(elements).add(out);           // bindings 0-3, 4, 5
+//   sylva::vk::Kernel kernel(context, sylva::spirv::my_shader, bindings.size(), sizeof(Push),
+//                            std::array<std::uint32_t, 2>{tree.shift, depth});
+//   context.dispatch(kernel, bindings.list(), &push, sizeof push, sylva::vk::groups_for(n, 64));
 #ifndef SYLVA_VULKAN_RUNNER_HPP
 #define SYLVA_VULKAN_RUNNER_HPP
 
@@ -37,6 +48,30 @@ inline std::uint32_t groups_for(std::size_t items, std::uint32_t group_size) {
     if (groups > UINT32_MAX) throw Error("groups_for: " + std::to_string(items) + " items need too many groups");
     return static_cast<std::uint32_t>(groups);
 }
+
+/// The storage buffers of one dispatch in binding order: add() appends a buffer (the next binding)
+/// or all parts of a split word array (the next four, as SYLVA_SPLIT_WORDS declares them). Holds
+/// pointers: the buffers must outlive the dispatch.
+class Bindings {
+public:
+    /// Binds `buffer` at the next binding.
+    Bindings& add(Buffer& buffer) {
+        buffers_.push_back(&buffer);
+        return *this;
+    }
+    /// Binds the parts of `words` at the next words.parts.size() bindings.
+    Bindings& add(SplitWords& words) {
+        for (Buffer& part : words.parts) buffers_.push_back(&part);
+        return *this;
+    }
+    /// How many bindings so far: the kernel's storage_buffer_count.
+    [[nodiscard]] std::uint32_t size() const noexcept { return static_cast<std::uint32_t>(buffers_.size()); }
+    /// The list for Context::dispatch.
+    [[nodiscard]] std::span<Buffer* const> list() const noexcept { return buffers_; }
+
+private:
+    std::vector<Buffer*> buffers_;
+};
 
 namespace detail {
 
