@@ -524,13 +524,9 @@ inline void measure(Tree& t) {
     }
 }
 
-}  // namespace detail
-
-/// Builds a BIH over `elements`. Throws sylva::Error for an empty input, more than 2^32 - 1
-/// elements, or an element whose box is not finite or inverted (lo > hi); the message names
-/// the element. The elements are not modified; the tree refers to them through `order`.
+/// bih::build into `t`, reusing its order array (bih::rebuild, sylva/bih/refit.hpp).
 template <Bounded E, Executor X>
-Tree build(std::span<const E> elements, const Config& config, X& exec) {
+void build_into(Tree& t, std::span<const E> elements, const Config& config, X& exec) {
     auto start = std::chrono::steady_clock::now();
     if (elements.empty()) throw Error("bih::build: no elements (empty input)");
     if (elements.size() >= std::numeric_limits<std::uint32_t>::max())
@@ -539,7 +535,7 @@ Tree build(std::span<const E> elements, const Config& config, X& exec) {
     cfg.max_depth = std::min<std::uint32_t>(cfg.max_depth, SYLVA_BIH_DEPTH_CAP);
     cfg.max_leaf_elements = std::max<std::uint32_t>(cfg.max_leaf_elements, 1);
 
-    Tree t;
+    t.stats = {};
     t.order.resize(elements.size());
     detail::Chunk root;
     {
@@ -555,6 +551,17 @@ Tree build(std::span<const E> elements, const Config& config, X& exec) {
     detail::assemble(root, t, exec);
     t.stats.elements = elements.size();
     t.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace detail
+
+/// Builds a BIH over `elements`. Throws sylva::Error for an empty input, more than 2^32 - 1
+/// elements, or an element whose box is not finite or inverted (lo > hi); the message names
+/// the element. The elements are not modified; the tree refers to them through `order`.
+template <Bounded E, Executor X>
+Tree build(std::span<const E> elements, const Config& config, X& exec) {
+    Tree t;
+    detail::build_into(t, elements, config, exec);
     return t;
 }
 
