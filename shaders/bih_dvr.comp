@@ -6,7 +6,8 @@
 // encoded node (SYLVA_SPLIT_WORDS; dummies when iso culling is off); 8 the transfer function
 // (RGBA8 words); 9 the parameter block (sylva/shared/dvr_common.h); 10 output, 5 words per
 // pixel: premultiplied R, G, B, alpha (float bits) and the iterator's step count
-// (0xFFFFFFFF: corrupted encoding).
+// (0xFFFFFFFF: corrupted encoding); 11 the caller's rays, 6 words a pixel (sylva/shared/rays.h;
+// read only for SYLVA_RAYS_BUFFER, else a dummy).
 // Specialization constants: 0 split shift of the BIH, 1 stack entries (>= the tree's max
 // depth), 2 split shift of the node ranges, 3 and 4 parts holding data of the BIH and of the
 // ranges (1: fast loads, see SYLVA_SPLIT_WORDS_COUNTED).
@@ -25,25 +26,23 @@ SYLVA_SPLIT_WORDS_COUNTED(ranges, 4, RANGES_SHIFT, RANGE_PARTS)
 layout(std430, binding = 8) readonly buffer Tf { uint tf_words[]; };
 layout(std430, binding = 9) readonly buffer Params { uint param_words[]; };
 layout(std430, binding = 10) writeonly buffer Pixels { uint pixels[]; };
+layout(std430, binding = 11) readonly buffer Rays { uint ray_words[]; };
 
 uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
 uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
 
-#include "sylva/shared/camera.h"
+#include "sylva/shared/rays.h"
 #include "sylva/shared/bih_dvr.h"
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
     uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= p.width || px.y >= p.height) return;
-    vec3 eye = sylva_param_v3(0u, 0u);
-    vec3 w = sylva_param_v3(0u, 3u);
-    vec3 u = sylva_param_v3(0u, 6u);
-    vec3 v = sylva_param_v3(0u, 9u);
-    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, p.width, p.height);
+    SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
     uint steps;
     uint status;
-    vec4 c = sylva_bih_volume_ray(0u, 0u, 0u, p, eye, d, 0.0f, sylva_inf(), steps, status);
+    vec4 c = sylva_bih_volume_ray(0u, 0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps, status);
     uint at = (px.y * p.width + px.x) * 5u;
     pixels[at] = floatBitsToUint(c.x);
     pixels[at + 1u] = floatBitsToUint(c.y);

@@ -12,6 +12,7 @@
 // terminated (sylva/shared/octree_dvr.h; written only when the push constant `feedback` is 1,
 // else a 4-byte dummy is bound and nothing is written). 10 octant masks, one word per node
 // (sylva/octree/octants.hpp; read only when the push constant `octmask` is 1, else a dummy).
+// 11 the caller's rays, 6 words a pixel (sylva/shared/rays.h; read only for SYLVA_RAYS_BUFFER).
 // Push constants: max level (the cut), the brick buffer's word count (its parts are split),
 // mode (0 DVR, 1 iso; the iso value is the parameter block's), feedback (1: write binding 9),
 // octmask (1: DVR skips the octants binding 10 marks empty).
@@ -30,6 +31,7 @@ layout(std430, binding = 7) readonly buffer Params { uint param_words[]; };
 layout(std430, binding = 8) writeonly buffer Pixels { uint pixels[]; };
 layout(std430, binding = 9) buffer Seen { uint seen_words[]; };
 layout(std430, binding = 10) readonly buffer OctMask { uint octmask_words[]; };
+layout(std430, binding = 11) readonly buffer Rays { uint ray_words[]; };
 layout(push_constant) uniform Push {
     uint max_level;
     uint brick_buffer_words;
@@ -47,12 +49,13 @@ uint sylva_load_words(uint i) { return i < uint(index_words.length()) ? index_wo
 uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
 uint sylva_load_tfsum(uint i) { return i < uint(tfsum_words.length()) ? tfsum_words[i] : 0u; }
 uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
 #define SYLVA_OCT_OCTMASK
 uint sylva_load_octmask(uint i) { return i < uint(octmask_words.length()) ? octmask_words[i] : 255u; }
 // grid_sample.h (whose arithmetic the bricks reuse) declares grid reads too; none happen here.
 uint sylva_load_grid(uint i) { return 0u; }
 
-#include "sylva/shared/camera.h"
+#include "sylva/shared/rays.h"
 #include "sylva/shared/octree_dvr.h"
 #include "sylva/shared/octree_iso.h"
 
@@ -60,20 +63,16 @@ void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
     uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= p.width || px.y >= p.height) return;
-    vec3 eye = sylva_param_v3(0u, 0u);
-    vec3 w = sylva_param_v3(0u, 3u);
-    vec3 u = sylva_param_v3(0u, 6u);
-    vec3 v = sylva_param_v3(0u, 9u);
-    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, p.width, p.height);
+    SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
     SylvaOctHeader h = sylva_oct_read_header(0u, uint(index_words.length()), pc.brick_buffer_words);
     uint steps;
     uint visits;
     uint status;
     vec4 c;
     if (pc.mode == 1u) {
-        c = sylva_oct_iso_ray_seen(0u, 0u, 0u, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), 0u, steps, visits, status);
+        c = sylva_oct_iso_ray_seen(0u, 0u, 0u, p, h, pc.max_level, ray.origin, ray.dir, 0.0f, sylva_inf(), 0u, steps, visits, status);
     } else {
-        c = sylva_oct_dvr_ray_masked(0u, 0u, 0u, 0u, 0u, pc.octmask, p, h, pc.max_level, eye, d, 0.0f, sylva_inf(), 0u,
+        c = sylva_oct_dvr_ray_masked(0u, 0u, 0u, 0u, 0u, pc.octmask, p, h, pc.max_level, ray.origin, ray.dir, 0.0f, sylva_inf(), 0u,
                                      steps, visits, status);
     }
     uint at = (px.y * p.width + px.x) * 5u;

@@ -1,4 +1,5 @@
-// sylva/render/camera.hpp -- a look-at pinhole camera and its 12-float frame for the shaders.
+// sylva/render/camera.hpp -- a look-at camera and its 12-float frame for the shaders (pinhole, or
+// orthographic with ortho_frame; the ray generators are sylva/shared/camera.h's).
 #ifndef SYLVA_RENDER_CAMERA_HPP
 #define SYLVA_RENDER_CAMERA_HPP
 
@@ -38,6 +39,17 @@ struct Camera {
         float half_h = std::tan(glm::radians(fov_y_deg) * 0.5f);
         float half_w = half_h * static_cast<float>(width) / static_cast<float>(height);
         return {eye, w, u * half_w, v * half_h};
+    }
+
+    /// The frame of an orthographic view (RaySource::Ortho, sylva/shared/camera.h): w the unit
+    /// view direction, u and v the half-width and half-height of the view rectangle in world
+    /// units (half_height high, width / height as wide), centred on the eye.
+    [[nodiscard]] CameraFrame ortho_frame(std::uint32_t width, std::uint32_t height, float half_height) const {
+        vec3 w = glm::normalize(target - eye);
+        vec3 u = glm::normalize(glm::cross(w, up));
+        vec3 v = glm::cross(u, w);
+        float half_w = half_height * static_cast<float>(width) / static_cast<float>(height);
+        return {eye, w, u * half_w, v * half_height};
     }
 
     /// A camera looking at `box` from direction `from` so that the whole box is in view.

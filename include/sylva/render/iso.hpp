@@ -24,6 +24,7 @@
 #include "sylva/core/executor.hpp"
 #include "sylva/ikd/packet.hpp"
 #include "sylva/render/camera.hpp"
+#include "sylva/render/rays.hpp"
 #include "sylva/render/particles.hpp"
 #include "sylva/render/volume.hpp"
 #include "sylva/shared/iso_render.h"
@@ -46,6 +47,9 @@ struct IsoSurface {
 /// Everything an isosurface image depends on besides the data.
 struct IsoRenderParams {
     CameraFrame camera{};
+    /// Primary rays: the camera as pinhole (default) or orthographic, or the caller's rays
+    /// (sylva/render/rays.hpp; parameter word 29).
+    PixelRays rays{};
     std::uint32_t width = 256;
     std::uint32_t height = 256;
     std::vector<IsoSurface> isos = std::vector<IsoSurface>(1);  ///< 1 .. 4 surfaces (default: one, 0.5)
@@ -71,6 +75,9 @@ inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size
     if (p.isos.empty() || p.isos.size() > 4)
         throw Error("render: " + std::to_string(p.isos.size()) + " isovalues; 1 to 4 can be rendered at once");
     if (p.width == 0 || p.height == 0) throw Error("render: empty image");
+    for (const vec3& v : {p.camera.eye, p.camera.w, p.camera.u, p.camera.v})
+        if (!all_finite(v)) throw Error("render: the camera holds a non-finite number");
+    check_rays(p.rays, p.width, p.height);
     std::vector<std::uint32_t> w(SYLVA_ISO_PARAM_WORDS, 0u);
     std::array<float, 12> cam = p.camera.floats();
     for (int i = 0; i < 12; ++i) w[i] = std::bit_cast<std::uint32_t>(cam[i]);
@@ -91,6 +98,7 @@ inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size
     if (tree_words > 0xFFFFFFFFu || grid_words > 0xFFFFFFFFu) throw Error("render: buffers over 2^32 words");
     w[27] = static_cast<std::uint32_t>(tree_words);
     w[28] = static_cast<std::uint32_t>(grid_words);
+    w[29] = static_cast<std::uint32_t>(p.rays.source);
     return w;
 }
 
@@ -120,6 +128,16 @@ struct IsoTotals {
         return {steps.load(), cells.load(), hits.load(), errors.load(), lane_steps.load()};
     }
 };
+
+/// Traces pixel (x, y): the camera's ray through the shared sylva_iso_pixel, or the caller's ray
+/// (PixelRays::buffer or ::generate) through sylva_iso_trace_ray, as the shader does.
+inline shared::SylvaIsoRay iso_pixel(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp,
+                                     const shared::SylvaIkdHeader& hdr, const IsoRenderParams& p, std::uint32_t x,
+                                     std::uint32_t y) {
+    if (p.rays.source != RaySource::Buffer) return shared::sylva_iso_pixel(tw, gw, sp, hdr, x, y);
+    Ray r = pixel_ray(p.camera, p.rays, x, y, p.width, p.height);
+    return shared::sylva_iso_trace_ray(tw, gw, sp, hdr, shared::SylvaRay{r.origin, r.direction});
+}
 
 /// Adds one traced ray to the pixel at i and to the counters.
 inline void iso_store(const shared::SylvaIsoRay& r, std::size_t i, Frame& f, IsoCounters& n) {
@@ -151,7 +169,7 @@ Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid
         IsoCounters n;
         for (std::size_t y = y0; y < y1; ++y)
             for (std::uint32_t x = 0; x < p.width; ++x)
-                detail::iso_store(shared::sylva_iso_pixel(tw, gw, sp, hdr, x, static_cast<std::uint32_t>(y)),
+                detail::iso_store(detail::iso_pixel(tw, gw, sp, hdr, p, x, static_cast<std::uint32_t>(y)),
                                   y * p.width + x, f, n);
         totals.add(n);
     });
@@ -166,15 +184,16 @@ namespace detail {
 /// stay inactive. Falls back to single rays when the directions' signs differ. Adds the packet's
 /// traversal steps (or the single rays') to n.
 inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp,
-                     const shared::SylvaIkdHeader& hdr, std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
+                     const shared::SylvaIkdHeader& hdr, const IsoRenderParams& rp, std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
     ikd::RayPacket pk;
     std::array<std::size_t, ikd::kPacketLanes> at{};
     for (int k = 0; k < ikd::kPacketLanes; ++k) {
         std::uint32_t x = x0 + (k & 1), y = y0 + (k >> 1);
         if (x >= sp.width || y >= sp.height) continue;
-        vec3 d = shared::sylva_camera_dir(sp.w, sp.u, sp.v, x, y, sp.width, sp.height);
+        Ray ray = pixel_ray(rp.camera, rp.rays, x, y, sp.width, sp.height);
+        vec3 d = ray.direction;
         float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-        pk.origin[k] = sp.eye;
+        pk.origin[k] = ray.origin;
         pk.direction[k] = vec3(d.x / len, d.y / len, d.z / len);
         pk.t_min[k] = 0.0f;
         pk.t_max[k] = shared::sylva_inf();
@@ -244,7 +263,7 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
         IsoCounters n;
         for (std::size_t r = r0; r < r1; ++r)
             for (std::uint32_t x = 0; x < p.width; x += 2)
-                detail::iso_tile(tw, gw, sp, hdr, x, static_cast<std::uint32_t>(2 * r), f, n);
+                detail::iso_tile(tw, gw, sp, hdr, p, x, static_cast<std::uint32_t>(2 * r), f, n);
         totals.add(n);
     });
     f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -29,6 +29,7 @@
 #include "sylva/core/executor.hpp"
 #include "sylva/render/camera.hpp"
 #include "sylva/render/particles.hpp"
+#include "sylva/render/rays.hpp"
 #include "sylva/shared/bih_dvr.h"
 #include "sylva/shared/dvr.h"
 #include "sylva/volume/grid.hpp"
@@ -46,6 +47,9 @@ enum class VolumeMode : std::uint32_t {
 /// Everything a volume image depends on besides the data.
 struct VolumeRenderParams {
     CameraFrame camera{};
+    /// Primary rays: the camera as pinhole (default) or orthographic, or the caller's rays
+    /// (sylva/render/rays.hpp; parameter word 35).
+    PixelRays rays{};
     std::uint32_t width = 256;
     std::uint32_t height = 256;
     /// Transfer function: straight RGBA8 words (R bits 0-7 ... A bits 24-31), entry i at
@@ -144,6 +148,7 @@ inline void check_volume_params(const VolumeRenderParams& p) {
     if (p.dt < 0.0f) throw Error("render: dt must be > 0 (or 0 for the default)");
     if (!(p.unit > 0.0f)) throw Error("render: unit must be > 0");
     if (!(p.alpha_stop > 0.0f)) throw Error("render: alpha_stop must be > 0");
+    check_rays(p.rays, p.width, p.height);
 }
 
 /// The resolved dt: p.dt, or default_dt(box); checks that the lattice index of the farthest
@@ -151,7 +156,10 @@ inline void check_volume_params(const VolumeRenderParams& p) {
 inline float resolve_dt(const VolumeRenderParams& p, const Aabb& box) {
     float dt = p.dt > 0.0f ? p.dt : default_dt(box);
     if (!(dt > 0.0f) || !std::isfinite(dt)) throw Error("render: dt resolves to 0 (empty volume box)");
-    vec3 far = glm::max(glm::abs(box.lo - p.camera.eye), glm::abs(box.hi - p.camera.eye));
+    Aabb from = ray_origin_box(p.camera, p.rays, p.width, p.height);
+    if (from.empty()) from = Aabb{box.lo, box.lo};
+    vec3 far = glm::max(glm::max(glm::abs(box.lo - from.lo), glm::abs(box.hi - from.lo)),
+                        glm::max(glm::abs(box.lo - from.hi), glm::abs(box.hi - from.hi)));
     double reach = glm::length(glm::dvec3(far));
     if (reach / dt >= 16777216.0)
         throw Error("render: dt " + std::to_string(dt) + " is too small for a volume " + std::to_string(reach) +
@@ -182,6 +190,7 @@ inline std::vector<std::uint32_t> pack_volume_params(const VolumeRenderParams& p
         w[31 + a] = detail::fbits(voxel_size[a]);
     }
     w[34] = word_count;
+    w[35] = static_cast<std::uint32_t>(p.rays.source);
     return w;
 }
 
@@ -251,7 +260,7 @@ Frame render_pixels(const VolumeRenderParams& p, X& exec, RayFn&& ray) {
     exec.parallel_for(0, p.height, 1, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y) {
             for (std::uint32_t x = 0; x < p.width; ++x) {
-                Ray r = p.camera.ray(x, static_cast<std::uint32_t>(y), p.width, p.height);
+                Ray r = pixel_ray(p.camera, p.rays, x, static_cast<std::uint32_t>(y), p.width, p.height);
                 std::size_t i = y * p.width + x;
                 f.rgba[i] = ray(r.origin, r.direction, f.steps[i]);
             }

@@ -21,7 +21,9 @@
 //   24     alpha_stop (float bits): the ray ends once its opacity reaches it
 //   25-26  ambient and diffuse weights (float bits)
 //   27     word count of the tree encoding    28  word count of the grid
-//   29-31  reserved, 0
+//   29     ray source: SYLVA_RAYS_* (camera.h: pinhole or orthographic from words 0-11; or the
+//          caller's ray buffer, read by the shader with rays.h's sylva_rays_load)
+//   30-31  reserved, 0
 #ifndef SYLVA_SHARED_ISO_RENDER_H
 #define SYLVA_SHARED_ISO_RENDER_H
 
@@ -52,6 +54,7 @@ struct SylvaIsoParams {
     float diffuse;
     uint tree_words;
     uint grid_words;
+    uint ray_source;
 };
 
 SYLVA_FN vec3 sylva_iso_load3(SYLVA_BUF(params), uint at) {
@@ -78,6 +81,7 @@ SYLVA_FN SylvaIsoParams sylva_iso_read_params(SYLVA_BUF(params)) {
     p.diffuse = uintBitsToFloat(SYLVA_LOAD(params, 26u));
     p.tree_words = SYLVA_LOAD(params, 27u);
     p.grid_words = SYLVA_LOAD(params, 28u);
+    p.ray_source = SYLVA_LOAD(params, 29u);
     return p;
 }
 
@@ -176,13 +180,22 @@ SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIso
     return r;
 }
 
-/// Renders pixel (x, y): the camera ray, normalised, through the walker the parameters name.
-SYLVA_FN SylvaIsoRay sylva_iso_pixel(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, SylvaIkdHeader hdr, uint x,
-                                     uint y) {
-    vec3 d = sylva_camera_dir(p.w, p.u, p.v, x, y, p.width, p.height);
+/// Traces the primary ray r, its direction normalised here, through the walker the parameters
+/// name.
+SYLVA_FN SylvaIsoRay sylva_iso_trace_ray(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, SylvaIkdHeader hdr,
+                                         SylvaRay r) {
+    vec3 d = r.dir;
     float len = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
     vec3 dir = vec3(d.x / len, d.y / len, d.z / len);
-    return sylva_iso_trace(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(grid), p, hdr, p.eye, dir);
+    return sylva_iso_trace(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(grid), p, hdr, r.origin, dir);
+}
+
+/// Renders pixel (x, y) with the camera of words 0-11 (pinhole, or orthographic when the ray
+/// source word says so; a ray buffer is read by the caller, see word 29).
+SYLVA_FN SylvaIsoRay sylva_iso_pixel(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, SylvaIkdHeader hdr, uint x,
+                                     uint y) {
+    SylvaRay r = sylva_camera_ray(p.ray_source, p.eye, p.w, p.u, p.v, x, y, p.width, p.height);
+    return sylva_iso_trace_ray(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(grid), p, hdr, r);
 }
 
 SYLVA_END_NAMESPACE

@@ -12,6 +12,11 @@
 //    The buffer is chosen by the parameter's NAME in GLSL, by its value in C++: a helper
 //    declared with SYLVA_BUF(words) always reads `words` on the GPU, whatever is passed. Only
 //    pass a buffer on to a helper whose parameter has the same name (the parity tests catch it).
+//  * Buffers a shader does not bind: `#define SYLVA_NO_<NAME>` (TF, TFSUM, PARAMS, RAYS, GRID)
+//    before the first include and this header defines `sylva_load_<name>` returning 0, so a
+//    shader never writes loaders for buffers it does not read (e.g. SYLVA_NO_TF with the TF hook
+//    of tf.h, SYLVA_NO_PARAMS when it fills SylvaDvrParams itself, SYLVA_NO_RAYS without a ray
+//    buffer). Reads of such a buffer give 0 words; the C++ side is unaffected.
 //  * Bit-exact host/GPU parity: use sylva_safe_rcp, canonicalise signed zero with sylva_canon
 //    (integer bit operations: lavapipe may fold `x + 0.0f`), compile host code with
 //    -ffp-contract=off, no fma.
@@ -69,6 +74,22 @@ struct Words {
 #define SYLVA_PASS_BUF(name) 0u
 #define SYLVA_PRECISE precise
 #define SYLVA_CONST const
+
+#ifdef SYLVA_NO_TF
+uint sylva_load_tf(uint i) { return 0u; }
+#endif
+#ifdef SYLVA_NO_TFSUM
+uint sylva_load_tfsum(uint i) { return 0u; }
+#endif
+#ifdef SYLVA_NO_PARAMS
+uint sylva_load_params(uint i) { return 0u; }
+#endif
+#ifdef SYLVA_NO_RAYS
+uint sylva_load_rays(uint i) { return 0u; }
+#endif
+#ifdef SYLVA_NO_GRID
+uint sylva_load_grid(uint i) { return 0u; }
+#endif
 
 #endif
 

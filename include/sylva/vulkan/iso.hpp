@@ -17,6 +17,7 @@
 
 #include "sylva/render/iso.hpp"
 #include "sylva/spirv/ikd_iso.h"
+#include "sylva/vulkan/rays.hpp"
 #include "sylva/vulkan/runner.hpp"
 
 namespace sylva::vk {
@@ -39,9 +40,10 @@ public:
         pb.upload(params);
         if (!kernel_) {
             std::array<std::uint32_t, 1> stack{SYLVA_IKD_MAX_LEVELS};
-            kernel_.emplace(ctx, spirv::ikd_iso, 4, 0, stack);
+            kernel_.emplace(ctx, spirv::ikd_iso, 5, 0, stack);
         }
-        std::array<Buffer*, 4> bind{&tree_, &grid_, &pb, &out};
+        Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
+        std::array<Buffer*, 5> bind{&tree_, &grid_, &pb, &out, &rays};
         Frame f{p.width, p.height, std::vector<vec4>(std::size_t{p.width} * p.height),
                 std::vector<std::uint32_t>(std::size_t{p.width} * p.height), 0.0};
         f.ms = ctx.dispatch(*kernel_, bind, nullptr, 0, groups_for(p.width, 8), groups_for(p.height, 8));

@@ -45,7 +45,7 @@ public:
         std::array<std::uint32_t, 5> c = constants(grid);
         if (!kernel_ || c != kernel_constants_) {
             kernel_.reset();
-            kernel_.emplace(ctx, spirv::kd_dvr, 11, 0, c);
+            kernel_.emplace(ctx, spirv::kd_dvr, 12, 0, c);
             kernel_constants_ = c;
         }
         return *kernel_;
@@ -83,8 +83,9 @@ inline Frame render_kd_dvr_vulkan(Context& ctx, DeviceGrid& grid, DeviceKdTree& 
     Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     tf.upload(p.tf);
     pb.upload(params);
-    std::array<Buffer*, 11> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), kd.part(0), kd.part(1),
-                                 kd.part(2),   kd.part(3),   &tf,          &pb,          &out};
+    Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
+    std::array<Buffer*, 12> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), kd.part(0), kd.part(1),
+                                 kd.part(2),   kd.part(3),   &tf,          &pb,          &out,         &rays};
     return detail::run_image_kernel(ctx, kd.kernel(ctx, grid), bind, out, p.width, p.height);
 }
 

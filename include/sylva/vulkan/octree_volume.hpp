@@ -100,7 +100,7 @@ public:
     /// The kernel for this octree's brick split, built on first use and kept.
     Kernel& kernel(Context& ctx) {
         std::array<std::uint32_t, 2> constants{bricks_.shift, parts_};
-        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 11, 20, constants);
+        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 12, 20, constants);
         return *kernel_;
     }
     [[nodiscard]] Buffer* brick_part(std::size_t i) { return &bricks_.parts[i]; }
@@ -171,9 +171,10 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
     pb.upload(params);
     Buffer& fb = seen.empty() ? oct.no_feedback(ctx) : oct.feedback(ctx, seen.size());
     Buffer& mb = oct.octant_masks(ctx, octmask);
-    std::array<Buffer*, 11> bind{oct.brick_part(0), oct.brick_part(1), oct.brick_part(2), oct.brick_part(3), oct.index(),
+    Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
+    std::array<Buffer*, 12> bind{oct.brick_part(0), oct.brick_part(1), oct.brick_part(2), oct.brick_part(3), oct.index(),
                                  &tf,               &sum,              &pb,               &out,              &fb,
-                                 &mb};
+                                 &mb,               &rays};
     std::array<std::uint32_t, 5> push{oct.max_level(), oct.brick_words(), mode, seen.empty() ? 0u : 1u,
                                       octmask.empty() ? 0u : 1u};
     Frame f{p.width, p.height, std::vector<vec4>(std::size_t{p.width} * p.height),

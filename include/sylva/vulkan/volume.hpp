@@ -22,6 +22,7 @@
 #include "sylva/spirv/bih_dvr.h"
 #include "sylva/spirv/dvr.h"
 #include "sylva/vulkan/bih.hpp"
+#include "sylva/vulkan/rays.hpp"
 #include "sylva/vulkan/runner.hpp"
 #include "sylva/vulkan/split_words.hpp"
 
@@ -50,7 +51,7 @@ public:
     /// The marcher's kernel for this grid, built on first use and kept (lavapipe compiles a
     /// pipeline on its first dispatch, which costs more than a small frame).
     Kernel& kernel(Context& ctx) {
-        if (!kernel_) kernel_.emplace(ctx, spirv::dvr, 7, 0, constants());
+        if (!kernel_) kernel_.emplace(ctx, spirv::dvr, 8, 0, constants());
         return *kernel_;
     }
     [[nodiscard]] Buffer* part(std::size_t i) { return &words_.parts[i]; }
@@ -93,7 +94,7 @@ public:
     }
     /// The BIH-DVR kernel for this BIH, built on first use and kept (see DeviceGrid::kernel).
     Kernel& kernel(Context& ctx) {
-        if (!kernel_) kernel_.emplace(ctx, spirv::bih_dvr, 11, 0, constants());
+        if (!kernel_) kernel_.emplace(ctx, spirv::bih_dvr, 12, 0, constants());
         return *kernel_;
     }
     [[nodiscard]] Buffer* part(std::size_t i) { return bih_.part(i); }
@@ -140,7 +141,8 @@ inline Frame render_dvr_vulkan(Context& ctx, DeviceGrid& grid, const VolumeRende
     Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     tf.upload(p.tf);
     pb.upload(params);
-    std::array<Buffer*, 7> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), &tf, &pb, &out};
+    Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
+    std::array<Buffer*, 8> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), &tf, &pb, &out, &rays};
     return detail::run_image_kernel(ctx, grid.kernel(ctx), bind, out, p.width, p.height);
 }
 
@@ -150,9 +152,10 @@ inline Frame render_bih_dvr_vulkan(Context& ctx, DeviceVoxelBih& bih, const Volu
     Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     tf.upload(p.tf);
     pb.upload(params);
-    std::array<Buffer*, 11> bind{bih.part(0),       bih.part(1),       bih.part(2),       bih.part(3),
+    Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
+    std::array<Buffer*, 12> bind{bih.part(0),       bih.part(1),       bih.part(2),       bih.part(3),
                                  bih.range_part(0), bih.range_part(1), bih.range_part(2), bih.range_part(3),
-                                 &tf,               &pb,               &out};
+                                 &tf,               &pb,               &out,              &rays};
     return detail::run_image_kernel(ctx, bih.kernel(ctx), bind, out, p.width, p.height);
 }
 
