@@ -24,8 +24,8 @@ TEST_CASE("sphere weight follows exp(-kappa (d/r)^2) and vanishes past r", "[par
     for (float d : {0.0f, 0.5f, 1.0f, 1.9f}) {
         auto c = s.interact({{d, 0.0f, 0.0f}, {0.0f, 0.0f, 1.0f}}, {});
         REQUIRE(c);
-        CHECK(c->t == Approx(5.0f));
-        CHECK(c->rgba.a == Approx(std::exp(-3.0f * (d / 2.0f) * (d / 2.0f))).epsilon(1e-5));
+        CHECK(c->interval.t0 == Approx(5.0f));
+        CHECK(c->alpha() == Approx(std::exp(-3.0f * (d / 2.0f) * (d / 2.0f))).epsilon(1e-5));
     }
     CHECK_FALSE(s.interact({{2.01f, 0.0f, 0.0f}, {0.0f, 0.0f, 1.0f}}, {}));
     CHECK_FALSE(s.interact({{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 1.0f}}, {0.0f, 4.0f}));  // beyond range
@@ -41,7 +41,7 @@ TEST_CASE("a truncated Gaussian RBF is exp(-d^2 / 2 sigma^2) up to k sigma", "[p
     for (float d : {0.0f, 0.25f, 0.5f, 1.0f, 1.49f}) {
         auto c = g.interact({{-5.0f, d, 0.0f}, {1.0f, 0.0f, 0.0f}}, {});
         REQUIRE(c);
-        CHECK(c->rgba.a == Approx(std::exp(-d * d / (2.0f * 0.25f))).epsilon(1e-5));
+        CHECK(c->alpha() == Approx(std::exp(-d * d / (2.0f * 0.25f))).epsilon(1e-5));
     }
     CHECK_FALSE(g.interact({{-5.0f, 1.51f, 0.0f}, {1.0f, 0.0f, 0.0f}}, {}));
 }
@@ -52,13 +52,13 @@ vec4 reference_composite(const std::vector<Sphere>& ps, const Ray& r, float stop
     std::vector<Contribution> cs;
     for (const auto& p : ps)
         if (auto c = p.interact(r, {})) cs.push_back(*c);
-    std::stable_sort(cs.begin(), cs.end(), [](auto& a, auto& b) { return a.t < b.t; });
+    std::stable_sort(cs.begin(), cs.end(), [](auto& a, auto& b) { return a.interval.t0 < b.interval.t0; });
     vec3 rgb{0.0f};
     float alpha = 0.0f;
     for (auto& c : cs) {
         if (alpha >= stop) break;
-        float k = (1.0f - alpha) * c.rgba.a;
-        rgb += k * vec3(c.rgba);
+        float k = (1.0f - alpha) * c.alpha();
+        rgb += k * c.rgb;
         alpha += k;
     }
     return {rgb, alpha};

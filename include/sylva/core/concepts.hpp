@@ -3,14 +3,22 @@
 //  * Bounded: an element with an axis-aligned box (member `bounds()` or ADL `bounds(e)`).
 //  * Intersectable: an element that reports where a ray is inside it (member
 //    `intersect(ray, range)` or ADL `intersect(e, ray, range)`), used by queries and references.
-//  * RayInteraction: an element that contributes colour and opacity to a ray (member
-//    `interact(ray, range)` or ADL `interact(e, ray, range)`), used by integrators.
+//  * RayInteraction: an element that acts on a ray over an interval: optical depth and colour
+//    over the part of [t0, t1] the element covers (member `interact(ray, range)` or ADL
+//    `interact(e, ray, range)`), used by integrators.
+//  * Elements written once in the shared C++/GLSL subset (sylva/shared/element.h) satisfy all
+//    three through the protocol functions sylva_elem_bounds / sylva_elem_interval /
+//    sylva_elem_medium, found by argument-dependent lookup; a member or ADL bounds / intersect /
+//    interact, where present, is preferred.
 //  * PayloadEncoder: how the elements of one leaf pack into the 62 payload bits of a BIH leaf.
 //  * Executor: parallel work (see sylva/core/executor.hpp).
 #ifndef SYLVA_CORE_CONCEPTS_HPP
 #define SYLVA_CORE_CONCEPTS_HPP
 
+#include <algorithm>
+#include <cmath>
 #include <concepts>
+#include <limits>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -21,13 +29,36 @@
 
 namespace sylva {
 
-/// One contribution of an element to a ray: where (t) and what (straight, not premultiplied, RGBA).
+/// What an element does to a ray over an interval: over `interval` (inside the queried range)
+/// the ray passes through a medium of optical depth `optical_depth` that emits the straight
+/// (not premultiplied) colour `rgb`; its opacity is 1 - exp(-optical_depth). Point-like models
+/// (the Gaussian sphere particles of Kinkelin 4.2) report the point where they deposit as a
+/// degenerate interval [t, t].
 struct Contribution {
-    float t = 0.0f;
-    vec4 rgba{0.0f};
+    Interval interval{};
+    vec3 rgb{0.0f};
+    float optical_depth = 0.0f;
+    /// Opacity 1 - exp(-optical_depth): 0 for none, 1 for +inf.
+    [[nodiscard]] float alpha() const {
+        if (!(optical_depth > 0.0f)) return 0.0f;
+        if (optical_depth == std::numeric_limits<float>::infinity()) return 1.0f;
+        return std::clamp(1.0f - std::exp(-optical_depth), 0.0f, 1.0f);
+    }
 };
 
 namespace detail {
+// The shared element protocol (sylva/shared/element.h), found by argument-dependent lookup.
+template <class E>
+concept HasSharedBounds = requires(const E& e, vec3& lo, vec3& hi) { sylva_elem_bounds(e, lo, hi); };
+template <class E>
+concept HasSharedInterval = requires(const E& e, vec3 v, float t) {
+    { sylva_elem_interval(e, v, v, t, t) } -> std::same_as<vec2>;
+};
+template <class E>
+concept HasSharedMedium = requires(const E& e, vec3 v, float t) {
+    { sylva_elem_medium(e, v, v, t, t) } -> std::same_as<vec4>;
+};
+
 template <class E>
 concept HasMemberBounds = requires(const E& e) {
     { e.bounds() } -> std::convertible_to<Aabb>;
@@ -38,10 +69,15 @@ concept HasAdlBounds = requires(const E& e) {
 };
 struct BoundsFn {
     template <class E>
-        requires HasMemberBounds<E> || HasAdlBounds<E>
+        requires HasMemberBounds<E> || HasAdlBounds<E> || HasSharedBounds<E>
     Aabb operator()(const E& e) const {
         if constexpr (HasMemberBounds<E>) return e.bounds();
-        else return bounds(e);
+        else if constexpr (HasAdlBounds<E>) return bounds(e);
+        else {
+            vec3 lo, hi;
+            sylva_elem_bounds(e, lo, hi);
+            return Aabb{lo, hi};
+        }
     }
 };
 
@@ -55,10 +91,15 @@ concept HasAdlIntersect = requires(const E& e, const Ray& r, Interval i) {
 };
 struct IntersectFn {
     template <class E>
-        requires HasMemberIntersect<E> || HasAdlIntersect<E>
+        requires HasMemberIntersect<E> || HasAdlIntersect<E> || HasSharedInterval<E>
     std::optional<Interval> operator()(const E& e, const Ray& r, Interval i) const {
         if constexpr (HasMemberIntersect<E>) return e.intersect(r, i);
-        else return intersect(e, r, i);
+        else if constexpr (HasAdlIntersect<E>) return intersect(e, r, i);
+        else {
+            vec2 t = sylva_elem_interval(e, r.origin, r.direction, i.t0, i.t1);
+            if (!(t.x <= t.y)) return std::nullopt;
+            return Interval{t.x, t.y};
+        }
     }
 };
 
@@ -72,10 +113,17 @@ concept HasAdlInteract = requires(const E& e, const Ray& r, Interval i) {
 };
 struct InteractFn {
     template <class E>
-        requires HasMemberInteract<E> || HasAdlInteract<E>
+        requires HasMemberInteract<E> || HasAdlInteract<E> || (HasSharedInterval<E> && HasSharedMedium<E>)
     std::optional<Contribution> operator()(const E& e, const Ray& r, Interval i) const {
         if constexpr (HasMemberInteract<E>) return e.interact(r, i);
-        else return interact(e, r, i);
+        else if constexpr (HasAdlInteract<E>) return interact(e, r, i);
+        else {
+            vec2 t = sylva_elem_interval(e, r.origin, r.direction, i.t0, i.t1);
+            if (!(t.x <= t.y)) return std::nullopt;
+            vec4 m = sylva_elem_medium(e, r.origin, r.direction, t.x, t.y);
+            if (!(m.w > 0.0f)) return std::nullopt;
+            return Contribution{Interval{t.x, t.y}, vec3(m.x, m.y, m.z), m.w};
+        }
     }
 };
 
@@ -97,15 +145,19 @@ inline constexpr detail::InteractFn interact_element{};
 
 /// An element with an axis-aligned bounding box.
 template <class E>
-concept Bounded = detail::HasMemberBounds<E> || detail::HasAdlBounds<E>;
+concept Bounded = detail::HasMemberBounds<E> || detail::HasAdlBounds<E> || detail::HasSharedBounds<E>;
 
 /// A bounded element whose overlap with a ray can be computed exactly.
 template <class E>
-concept Intersectable = Bounded<E> && (detail::HasMemberIntersect<E> || detail::HasAdlIntersect<E>);
+concept Intersectable =
+    Bounded<E> && (detail::HasMemberIntersect<E> || detail::HasAdlIntersect<E> || detail::HasSharedInterval<E>);
 
-/// A bounded element that contributes colour and opacity to a ray (particles, RBFs, ...).
+/// A bounded element that acts on a ray over an interval (optical depth and colour; particles,
+/// RBFs, media ...).
 template <class E>
-concept RayInteraction = Bounded<E> && (detail::HasMemberInteract<E> || detail::HasAdlInteract<E>);
+concept RayInteraction =
+    Bounded<E> && (detail::HasMemberInteract<E> || detail::HasAdlInteract<E> ||
+                   (detail::HasSharedInterval<E> && detail::HasSharedMedium<E>));
 
 /// Packs the elements of one leaf (in leaf order; `first` is the index of the first of them in
 /// the builder's element order) into at most 62 bits. `kind` is stored in the encoding's header

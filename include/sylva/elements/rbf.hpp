@@ -5,27 +5,29 @@
 
 #include "sylva/elements/sphere.hpp"
 
-namespace sylva {
+namespace sylva::elements {
 
-/// exp(-d^2 / (2 sigma^2)) for d <= truncation * sigma, zero beyond.
-struct GaussianRbf {
-    vec3 center{0.0f};
-    float sigma = 1.0f;
-    float truncation = 3.0f;  ///< support radius in units of sigma
-    vec4 rgba{1.0f};
-
-    /// The same function written as a sphere: radius k sigma, kappa k^2 / 2.
-    [[nodiscard]] Sphere sphere() const {
-        return Sphere{center, truncation * sigma, rgba, 0.5f * truncation * truncation};
-    }
-    [[nodiscard]] Aabb bounds() const { return sphere().bounds(); }
-    [[nodiscard]] std::optional<Interval> intersect(const Ray& r, Interval i) const { return sphere().intersect(r, i); }
-    [[nodiscard]] std::optional<Contribution> interact(const Ray& r, Interval i) const {
-        return sphere().interact(r, i);
-    }
-};
+// GaussianRbf is defined once, in the shared subset (sylva/shared/sphere_element.h).
+inline Sphere GaussianRbf::sphere() const { return sylva_rbf_sphere(*this); }
+inline Aabb GaussianRbf::bounds() const { return sphere().bounds(); }
+inline std::optional<Interval> GaussianRbf::intersect(const Ray& r, Interval i) const { return sphere().intersect(r, i); }
+inline std::optional<Contribution> GaussianRbf::interact(const Ray& r, Interval i) const {
+    return sphere().interact(r, i);
+}
 inline Sphere as_sphere(const GaussianRbf& g) { return g.sphere(); }
 
+/// C++ side of the protocol: the record sylva_elem_load(GaussianRbf) reads.
+inline void sylva_elem_store(const GaussianRbf& g, ::sylva::shared::RecordOut out) {
+    out.v3(0u, g.center);
+    out.f(3u, g.sigma);
+    out.f(4u, g.truncation);
+    out.u(5u, pack_rgba8(g.rgba));
+}
+
+}  // namespace sylva::elements
+
+namespace sylva {
+using elements::GaussianRbf;
 }  // namespace sylva
 
 #endif  // SYLVA_ELEMENTS_RBF_HPP

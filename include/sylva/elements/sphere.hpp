@@ -1,5 +1,6 @@
 // sylva/elements/sphere.hpp -- spherical particles with Gaussian weight (Kinkelin section 4.2)
-// and their packing into the shared record of sylva/shared/particles.h.
+// and their packing into the shared record of sylva/shared/particles.h. The type itself is
+// written once in the shared subset (sylva/shared/sphere_element.h), like any user element.
 #ifndef SYLVA_ELEMENTS_SPHERE_HPP
 #define SYLVA_ELEMENTS_SPHERE_HPP
 
@@ -13,6 +14,7 @@
 
 #include "sylva/core/concepts.hpp"
 #include "sylva/shared/particles.h"
+#include "sylva/shared/sphere_element.h"
 
 namespace sylva {
 
@@ -22,42 +24,57 @@ inline std::uint32_t pack_rgba8(const vec4& c) {
     return q(c.r) | (q(c.g) << 8) | (q(c.b) << 16) | (q(c.a) << 24);
 }
 
-/// A sphere particle: weight exp(-kappa (d/r)^2) for rays passing at distance d <= radius.
-/// Colour is straight (not premultiplied) RGBA; it is stored as RGBA8 on the GPU.
-struct Sphere {
-    vec3 center{0.0f};
-    float radius = 1.0f;
-    vec4 rgba{1.0f};
-    float kappa = 2.0f;  ///< falloff; Kaehler et al. use values around 2
+}  // namespace sylva
 
-    [[nodiscard]] Aabb bounds() const { return {center - vec3(radius), center + vec3(radius)}; }
+namespace sylva::elements {
 
-    /// Where the ray is inside the ball, within `range`.
-    [[nodiscard]] std::optional<Interval> intersect(const Ray& ray, Interval range) const {
-        vec2 a = shared::sylva_particle_approach(center, radius, ray.origin, ray.direction);
-        if (!(a.y <= 1.0f)) return std::nullopt;
-        float half = std::sqrt((1.0f - a.y) * radius * radius / glm::dot(ray.direction, ray.direction));
-        Interval t{std::max(range.t0, a.x - half), std::min(range.t1, a.x + half)};
-        if (t.empty()) return std::nullopt;
-        return t;
-    }
+// Sphere is defined once, in the shared subset (sylva/shared/sphere_element.h); these members
+// are C++ conveniences over the same protocol functions the GPU kernels call.
+inline Aabb Sphere::bounds() const {
+    Aabb b;
+    sylva_elem_bounds(*this, b.lo, b.hi);
+    return b;
+}
 
-    /// The weighted colour the ray receives at its closest approach (same maths as the shaders).
-    [[nodiscard]] std::optional<Contribution> interact(const Ray& ray, Interval range) const {
-        vec2 a = shared::sylva_particle_approach(center, radius, ray.origin, ray.direction);
-        if (!(a.y <= 1.0f) || a.x < range.t0 || a.x > range.t1) return std::nullopt;
-        vec4 c = shared::sylva_unpack_rgba8(pack_rgba8(rgba));
-        c.a = std::clamp(c.a * shared::sylva_radial_weight(a.y, kappa), 0.0f, 1.0f);
-        return Contribution{a.x, c};
-    }
-};
+inline std::optional<Interval> Sphere::intersect(const Ray& ray, Interval range) const {
+    vec2 t = sylva_elem_interval(*this, ray.origin, ray.direction, range.t0, range.t1);
+    if (!(t.x <= t.y)) return std::nullopt;
+    return Interval{t.x, t.y};
+}
+
+/// The opacity the ray receives at its closest approach t_c, as the degenerate interval [t_c,
+/// t_c] with optical depth -log(1 - a); the colour is quantised to RGBA8 as on the GPU.
+inline std::optional<Contribution> Sphere::interact(const Ray& ray, Interval range) const {
+    Sphere q = *this;
+    q.rgba = sylva_unpack_rgba8(pack_rgba8(rgba));
+    vec2 a = sylva_particle_approach(center, radius, ray.origin, ray.direction);
+    vec4 m = sylva_elem_medium(q, ray.origin, ray.direction, range.t0, range.t1);
+    if (!(a.y <= 1.0f) || a.x < range.t0 || a.x > range.t1) return std::nullopt;
+    return Contribution{Interval{a.x, a.x}, vec3(m.x, m.y, m.z), m.w};
+}
+
+/// C++ side of the protocol: the record sylva_elem_load(Sphere) reads.
+inline void sylva_elem_store(const Sphere& s, ::sylva::shared::RecordOut out) {
+    out.v3(0u, s.center);
+    out.f(3u, s.radius);
+    out.f(4u, s.kappa);
+    out.u(5u, pack_rgba8(s.rgba));
+}
+
+inline Sphere as_sphere(const Sphere& s) { return s; }
+
+}  // namespace sylva::elements
+
+namespace sylva {
+
+using elements::Sphere;
+using elements::as_sphere;
 
 /// Anything that can be drawn as a radial particle: spheres, truncated Gaussian RBFs, user types.
 template <class P>
 concept RadialParticle = requires(const P& p) {
     { as_sphere(p) } -> std::same_as<Sphere>;
 };
-inline Sphere as_sphere(const Sphere& s) { return s; }
 
 /// The 8-word records of sylva/shared/particles.h, in the given element order.
 template <RadialParticle P>

@@ -1,6 +1,6 @@
 // sylva/shared/lang.h -- the bridge that lets one text compile as C++20 and as GLSL 4.60.
 //
-// Rules for every header under sylva/shared/ (see DESIGN.md, "The shared C++/GLSL subset"):
+// Rules for every header under sylva/shared/ (see docs/DESIGN.md, "The shared C++/GLSL subset"):
 //  * GLSL names and semantics (uint, vec3, floatBitsToUint, ...); GLM supplies them on the host.
 //  * Typed literals (1.0f, 1u); no mixed-type calls; no pointers, templates, recursion, static,
 //    inline, typedef, sizeof, goto, unsigned, char, default arguments, overloaded operators,
@@ -20,6 +20,13 @@
 //  * Bit-exact host/GPU parity: use sylva_safe_rcp, canonicalise signed zero with sylva_canon
 //    (integer bit operations: lavapipe may fold `x + 0.0f`), compile host code with
 //    -ffp-contract=off, no fma.
+//  * User code in the subset (an element type, see sylva/shared/element.h) lives in its own
+//    namespace: SYLVA_USER_BEGIN_NAMESPACE(ns) ... SYLVA_USER_END_NAMESPACE opens `namespace ns`
+//    with the subset's names (uint, vec3, sylva_* helpers) visible in C++, and nothing in GLSL
+//    (GLSL has one global namespace: prefix user names). SYLVA_BEGIN_NAMESPACE stays the
+//    library's own (sylva::shared); do not redefine it. SYLVA_DEFAULT(v) gives a struct member a
+//    default value in C++ (` = v`) and nothing in GLSL, so one struct serves both;
+//    `SYLVA_UNUSED(x);` marks a parameter unused (C++ warns, GLSL does not).
 //  * Host compiler flags: the shared code needs IEEE float semantics. -ffast-math (and
 //    -Ofast, which implies it) is refused below with an #error, through the __FAST_MATH__
 //    macro GCC and Clang define for it. -ffp-contract=off cannot be detected portably (no
@@ -61,6 +68,12 @@ struct Words {
 #define SYLVA_PASS_BUF(name) name
 #define SYLVA_PRECISE
 #define SYLVA_CONST constexpr
+#define SYLVA_USER_BEGIN_NAMESPACE(ns) \
+    namespace ns {                     \
+    using namespace ::sylva::shared;
+#define SYLVA_USER_END_NAMESPACE }
+#define SYLVA_DEFAULT(v) = v
+#define SYLVA_UNUSED(x) static_cast<void>(x)
 
 #else  // GLSL
 
@@ -74,6 +87,10 @@ struct Words {
 #define SYLVA_PASS_BUF(name) 0u
 #define SYLVA_PRECISE precise
 #define SYLVA_CONST const
+#define SYLVA_USER_BEGIN_NAMESPACE(ns)
+#define SYLVA_USER_END_NAMESPACE
+#define SYLVA_DEFAULT(v)
+#define SYLVA_UNUSED(x)
 
 #ifdef SYLVA_NO_TF
 uint sylva_load_tf(uint i) { return 0u; }

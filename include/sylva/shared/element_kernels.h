@@ -1,0 +1,306 @@
+// sylva/shared/element_kernels.h -- generic kernels over any element type (sylva/shared/element.h)
+// and any element index (sylva/shared/element_bih.h): element hits in exact front-to-back order,
+// first hit, and front-to-back compositing of the elements' media over their intervals.
+//
+// The element type and the index are parameters: in C++ template parameters <SylvaElem,
+// SylvaIndexIter> (the protocol functions are found by argument-dependent lookup); in GLSL the
+// shader defines the macro SylvaElem (the element struct) before including this header, and
+// optionally SylvaIndexIter (default SylvaBihIter, after including its index header).
+//
+//   SylvaHitIter h; SylvaBihIter it; SylvaHit hit;
+//   sylva_hits_init(h, it, words, word_count, elem_count, o, d, t_min, t_max);   (C++: <E, I>)
+//   while (sylva_hits_next<E, I>(h, it, words, elems, hit)) { ... hit.elem, hit.t0, hit.t1 ... }
+//
+// Order: hits come sorted by (t0, record index), exactly, whatever the overlap of leaves. Leaves
+// of an index may overlap and come out of order; the iterator holds hits in a window of
+// SYLVA_HIT_WINDOW entries (default 64) and hands one out only once every leaf still to come
+// starts strictly after it (sylva_index_bound), which streams them with early termination.
+// When more hits are pending than the window holds, it keeps the earliest, lets the index skip
+// what starts after them (sylva_index_clip) and, once they are handed out, traverses again for
+// the hits after the last one handed out (a k-nearest-along-the-ray pass): memory stays bounded
+// and the order exact; `passes` counts the traversals.
+// Leaves that address records past elem_count end the ray with SYLVA_ITER_ERROR.
+//
+// In GLSL the window is a private global (like the BIH stack): one hit iterator per invocation.
+#ifndef SYLVA_SHARED_ELEMENT_KERNELS_H
+#define SYLVA_SHARED_ELEMENT_KERNELS_H
+
+#include "sylva/shared/element.h"
+#include "sylva/shared/particles.h"
+
+#ifndef SYLVA_HIT_WINDOW
+#define SYLVA_HIT_WINDOW 64
+#endif
+
+#ifdef __cplusplus
+#define SYLVA_ELEM_TEMPLATE template <class SylvaElem, class SylvaIndexIter>
+#define SYLVA_ELEM_TARGS <SylvaElem, SylvaIndexIter>
+#else
+#ifndef SylvaElem
+#error "sylva/shared/element_kernels.h: #define SylvaElem <your element struct> before including it"
+#endif
+#ifndef SylvaIndexIter
+#define SylvaIndexIter SylvaBihIter
+#endif
+#define SYLVA_ELEM_TEMPLATE
+#define SYLVA_ELEM_TARGS
+#endif
+
+SYLVA_BEGIN_NAMESPACE
+
+/// Pending hits, kept sorted by decreasing (t0, elem): the earliest is at count - 1.
+struct SylvaHitWindow {
+    uint w_elem[SYLVA_HIT_WINDOW];
+    float w_t0[SYLVA_HIT_WINDOW];
+    float w_t1[SYLVA_HIT_WINDOW];
+};
+
+/// State of an ordered hit iterator (the index iterator is held beside it by the caller).
+struct SylvaHitIter {
+    vec3 org;
+    vec3 dir;
+    float t_min;
+    float t_max;
+    uint word_count;  ///< words of the index encoding (to restart it for another pass)
+    uint elem_count;  ///< records in the element buffer
+    uint leaf_first;  ///< the current leaf's records still to test: [leaf_first + leaf_k, leaf_first + leaf_count)
+    uint leaf_count;
+    uint leaf_k;
+    float leaf_t_in;  ///< the current leaf's entry: a lower bound of its hits
+    uint count;       ///< hits in the window
+    uint done;        ///< 1 once the index has no more leaves in this pass
+    uint truncated;   ///< 1 when this pass dropped hits that did not fit the window
+    uint emitted;     ///< 1 once a hit was handed out; (last_t0, last_elem) is the last one
+    float last_t0;
+    uint last_elem;
+    uint passes;      ///< traversals of the index so far (1 unless the window overflowed)
+    uint steps_before;///< index steps of the passes before this one
+    uint status;      ///< SYLVA_ITER_* of the index
+#ifdef __cplusplus
+    SylvaHitWindow window;
+#endif
+};
+
+#ifdef __cplusplus
+#define SYLVA_HIT_WINDOW_OF(h) (h).window
+#else
+SylvaHitWindow sylva_hit_window_private;
+#define SYLVA_HIT_WINDOW_OF(h) sylva_hit_window_private
+#endif
+
+/// True when hit (e, t) comes before hit (f, u): smaller entry, then smaller record index.
+SYLVA_FN bool sylva_hit_before(uint e, float t, uint f, float u) { return t < u || (t == u && e < f); }
+
+/// Drops the latest hit of a full window (index 0; the window is sorted latest first).
+SYLVA_FN void sylva_hit_drop_latest(SYLVA_INOUT(SylvaHitIter) h) {
+    for (uint i = 1u; i < h.count; i++) {
+        SYLVA_HIT_WINDOW_OF(h).w_elem[i - 1u] = SYLVA_HIT_WINDOW_OF(h).w_elem[i];
+        SYLVA_HIT_WINDOW_OF(h).w_t0[i - 1u] = SYLVA_HIT_WINDOW_OF(h).w_t0[i];
+        SYLVA_HIT_WINDOW_OF(h).w_t1[i - 1u] = SYLVA_HIT_WINDOW_OF(h).w_t1[i];
+    }
+    h.count = h.count - 1u;
+    h.truncated = 1u;
+}
+
+/// Inserts a hit into the window, keeping it sorted latest first. A hit not after the last one
+/// handed out is ignored (an earlier pass gave it); a full window keeps its earliest hits.
+SYLVA_FN void sylva_hit_insert(SYLVA_INOUT(SylvaHitIter) h, uint e, float t0, float t1) {
+    if (h.emitted != 0u && !sylva_hit_before(h.last_elem, h.last_t0, e, t0)) return;
+    if (h.count == uint(SYLVA_HIT_WINDOW)) {
+        if (!sylva_hit_before(e, t0, SYLVA_HIT_WINDOW_OF(h).w_elem[0], SYLVA_HIT_WINDOW_OF(h).w_t0[0])) {
+            h.truncated = 1u;  // later than all kept: the next pass finds it
+            return;
+        }
+        sylva_hit_drop_latest(h);
+    }
+    uint i = h.count;
+    while (i > 0u && sylva_hit_before(SYLVA_HIT_WINDOW_OF(h).w_elem[i - 1u], SYLVA_HIT_WINDOW_OF(h).w_t0[i - 1u], e, t0)) {
+        SYLVA_HIT_WINDOW_OF(h).w_elem[i] = SYLVA_HIT_WINDOW_OF(h).w_elem[i - 1u];
+        SYLVA_HIT_WINDOW_OF(h).w_t0[i] = SYLVA_HIT_WINDOW_OF(h).w_t0[i - 1u];
+        SYLVA_HIT_WINDOW_OF(h).w_t1[i] = SYLVA_HIT_WINDOW_OF(h).w_t1[i - 1u];
+        i = i - 1u;
+    }
+    SYLVA_HIT_WINDOW_OF(h).w_elem[i] = e;
+    SYLVA_HIT_WINDOW_OF(h).w_t0[i] = t0;
+    SYLVA_HIT_WINDOW_OF(h).w_t1[i] = t1;
+    h.count = h.count + 1u;
+}
+
+/// Takes the earliest hit out of the window.
+SYLVA_FN void sylva_hit_pop(SYLVA_INOUT(SylvaHitIter) h, SYLVA_OUT(SylvaHit) hit) {
+    h.count = h.count - 1u;
+    hit.elem = SYLVA_HIT_WINDOW_OF(h).w_elem[h.count];
+    hit.t0 = SYLVA_HIT_WINDOW_OF(h).w_t0[h.count];
+    hit.t1 = SYLVA_HIT_WINDOW_OF(h).w_t1[h.count];
+    h.emitted = 1u;
+    h.last_t0 = hit.t0;
+    h.last_elem = hit.elem;
+}
+
+/// Starts a pass over the index (the first, or another after a window overflow).
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN void sylva_hits_start_pass(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it, SYLVA_BUF(words)) {
+    sylva_index_init(it, SYLVA_PASS_BUF(words), h.word_count, h.org, h.dir, h.t_min, h.t_max);
+    h.leaf_first = 0u;
+    h.leaf_count = 0u;
+    h.leaf_k = 0u;
+    h.leaf_t_in = sylva_inf();
+    h.done = 0u;
+    h.truncated = 0u;
+    h.passes = h.passes + 1u;
+    h.status = sylva_index_status(it);
+    if (h.status == SYLVA_ITER_ERROR) h.done = 1u;
+}
+
+/// Starts an ordered hit iteration of the ray o + t d over [t_min, t_max].
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN void sylva_hits_init(SYLVA_OUT(SylvaHitIter) h, SYLVA_OUT(SylvaIndexIter) it, SYLVA_BUF(words),
+                              uint word_count, uint elem_count, vec3 o, vec3 d, float t_min, float t_max) {
+    h.org = o;
+    h.dir = d;
+    h.t_min = t_min;
+    h.t_max = t_max;
+    h.word_count = word_count;
+    h.elem_count = elem_count;
+    h.count = 0u;
+    h.emitted = 0u;
+    h.last_t0 = 0.0f;
+    h.last_elem = 0u;
+    h.passes = 0u;
+    h.steps_before = 0u;
+    sylva_hits_start_pass SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
+}
+
+/// Index nodes visited so far, over all passes.
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN uint sylva_hits_steps(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it) {
+    return h.steps_before + sylva_index_steps(it);
+}
+
+/// Tests the current leaf's next record against the ray and keeps it when hit; once the window
+/// is full, the index may skip what starts after the window's latest hit.
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN void sylva_hits_test_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it, SYLVA_BUF(elems)) {
+    uint e = h.leaf_first + h.leaf_k;
+    h.leaf_k = h.leaf_k + 1u;
+    SylvaElem x;
+    sylva_elem_load(SYLVA_PASS_BUF(elems), e, x);
+    vec2 t = sylva_elem_interval(x, h.org, h.dir, h.t_min, h.t_max);
+    if (t.x <= t.y) {
+        sylva_hit_insert(h, e, t.x, t.y);
+        if (h.count == uint(SYLVA_HIT_WINDOW)) {
+            sylva_index_clip(it, SYLVA_HIT_WINDOW_OF(h).w_t0[0]);
+            h.truncated = 1u;  // what the clip skips is found by the next pass
+        }
+    }
+}
+
+/// Fetches the next leaf; false when the pass is over or the leaf is out of range (ERROR).
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN bool sylva_hits_fetch_leaf(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it, SYLVA_BUF(words)) {
+    uint first;
+    uint count;
+    float t_in;
+    if (!sylva_index_leaf(it, SYLVA_PASS_BUF(words), first, count, t_in)) {
+        h.done = 1u;
+        h.status = sylva_index_status(it);
+        return false;
+    }
+    if (count > h.elem_count || first > h.elem_count - count) {
+        h.done = 1u;
+        h.status = SYLVA_ITER_ERROR;
+        return false;
+    }
+    h.leaf_first = first;
+    h.leaf_count = count;
+    h.leaf_k = 0u;
+    h.leaf_t_in = t_in;
+    return true;
+}
+
+/// The next hit in order; false when there is none (h.status says DONE or ERROR; after an
+/// ERROR no further hit is handed out).
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN bool sylva_hits_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it, SYLVA_BUF(words),
+                              SYLVA_BUF(elems), SYLVA_OUT(SylvaHit) hit) {
+    hit.elem = 0u;
+    hit.t0 = 0.0f;
+    hit.t1 = 0.0f;
+    while (h.status != SYLVA_ITER_ERROR) {
+        bool leaf_left = h.leaf_k < h.leaf_count;
+        if (h.count > 0u) {
+            // Safe once every leaf still to come starts strictly after the hit: a later leaf may
+            // hold a hit at the same t with a smaller index. Dropped hits all come after it.
+            float bound = leaf_left ? h.leaf_t_in : sylva_inf();
+            if (h.done == 0u) bound = sylva_min(bound, sylva_index_bound(it));
+            if (h.done != 0u || SYLVA_HIT_WINDOW_OF(h).w_t0[h.count - 1u] < bound) {
+                sylva_hit_pop(h, hit);
+                return true;
+            }
+        }
+        if (leaf_left) {
+            sylva_hits_test_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(elems));
+        } else if (h.done == 0u) {
+            sylva_hits_fetch_leaf SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
+        } else if (h.truncated != 0u) {
+            h.steps_before = h.steps_before + sylva_index_steps(it);
+            sylva_hits_start_pass SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
+        } else {
+            return false;
+        }
+    }
+    h.count = 0u;
+    return false;
+}
+
+/// Nearest hit (smallest t0, then smallest record index) of the ray over [t_min, t_max].
+/// `status` receives the index's final status, `steps` the nodes it visited.
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN bool sylva_elements_first_hit(SYLVA_BUF(words), uint word_count, SYLVA_BUF(elems), uint elem_count, vec3 o,
+                                       vec3 d, float t_min, float t_max, SYLVA_OUT(SylvaHit) hit,
+                                       SYLVA_OUT(uint) steps, SYLVA_OUT(uint) status) {
+    SylvaHitIter h;
+    SylvaIndexIter it;
+    sylva_hits_init SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), word_count, elem_count, o, d, t_min, t_max);
+    bool found = sylva_hits_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), hit);
+    steps = sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
+    status = h.status;
+    return found;
+}
+
+/// Adds one medium (straight RGB, optical depth) front to back.
+SYLVA_FN void sylva_composite_medium(SYLVA_INOUT(SylvaComposite) acc, vec4 medium) {
+    float a = sylva_tau_alpha(medium.w);
+    float k = (1.0f - acc.alpha) * a;
+    acc.rgb = vec3(acc.rgb.x + k * medium.x, acc.rgb.y + k * medium.y, acc.rgb.z + k * medium.z);
+    acc.alpha = acc.alpha + k;
+}
+
+/// Composites the elements the ray crosses, front to back in hit order, each over its own
+/// interval [t0, t1] (sylva_elem_medium), until the opacity reaches alpha_stop. Returns
+/// premultiplied RGB and opacity.
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN vec4 sylva_elements_composite(SYLVA_BUF(words), uint word_count, SYLVA_BUF(elems), uint elem_count, vec3 o,
+                                       vec3 d, float t_min, float t_max, float alpha_stop, SYLVA_OUT(uint) steps,
+                                       SYLVA_OUT(uint) status) {
+    SylvaHitIter h;
+    SylvaIndexIter it;
+    sylva_hits_init SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), word_count, elem_count, o, d, t_min, t_max);
+    SylvaComposite acc;
+    acc.rgb = vec3(0.0f);
+    acc.alpha = 0.0f;
+    SylvaHit hit;
+    while (acc.alpha < alpha_stop &&
+           sylva_hits_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), hit)) {
+        SylvaElem x;
+        sylva_elem_load(SYLVA_PASS_BUF(elems), hit.elem, x);
+        sylva_composite_medium(acc, sylva_elem_medium(x, o, d, hit.t0, hit.t1));
+    }
+    steps = sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
+    status = h.status;
+    return vec4(acc.rgb.x, acc.rgb.y, acc.rgb.z, acc.alpha);
+}
+
+SYLVA_END_NAMESPACE
+
+#endif  // SYLVA_SHARED_ELEMENT_KERNELS_H

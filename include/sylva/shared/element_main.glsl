@@ -1,0 +1,77 @@
+// sylva/shared/element_main.glsl -- GLSL only: main() of the generic element kernel, for the
+// element type the shader names with `#define SylvaElem T` (see element_prologue.glsl).
+//
+// Mode 0 (hits): one invocation per ray of binding 5 (ray_count rays, laid out as a width x
+// height grid); writes
+// 4 + 3 * max_hits words per ray: hits written, status (SYLVA_ITER_* in bits 0-7, index passes in
+// bits 8-31),
+// index steps, 1 if more hits followed the last one written, then per hit (record index,
+// t0 bits, t1 bits), in order (sylva/shared/element_kernels.h). max_hits 1 is the first hit.
+// Mode 1 (image): one invocation per pixel of a width x height camera image; writes 6 words per
+// pixel: premultiplied R, G, B, opacity (float bits), steps, status.
+#ifndef SYLVA_SHARED_ELEMENT_MAIN_GLSL
+#define SYLVA_SHARED_ELEMENT_MAIN_GLSL
+
+#include "sylva/shared/camera.h"
+#include "sylva/shared/element_bih.h"
+#include "sylva/shared/element_kernels.h"
+
+void sylva_element_hits_main(uint r) {
+    uint at = r * 8u;
+    vec3 o = vec3(sylva_rays_data[at], sylva_rays_data[at + 1u], sylva_rays_data[at + 2u]);
+    vec3 d = vec3(sylva_rays_data[at + 3u], sylva_rays_data[at + 4u], sylva_rays_data[at + 5u]);
+    SylvaHitIter h;
+    SylvaIndexIter it;
+    sylva_hits_init(h, it, 0u, sylva_pc.word_count, sylva_pc.elem_count, o, d, sylva_rays_data[at + 6u],
+                    sylva_rays_data[at + 7u]);
+    uint out_at = r * (4u + 3u * sylva_pc.max_hits);
+    uint n = 0u;
+    uint more = 0u;
+    SylvaHit hit;
+    while (sylva_hits_next(h, it, 0u, 0u, hit)) {
+        if (n == sylva_pc.max_hits) {
+            more = 1u;
+            break;
+        }
+        sylva_out_data[out_at + 4u + 3u * n] = hit.elem;
+        sylva_out_data[out_at + 5u + 3u * n] = floatBitsToUint(hit.t0);
+        sylva_out_data[out_at + 6u + 3u * n] = floatBitsToUint(hit.t1);
+        n = n + 1u;
+    }
+    sylva_out_data[out_at] = n;
+    sylva_out_data[out_at + 1u] = h.status | (h.passes << 8u);
+    sylva_out_data[out_at + 2u] = sylva_hits_steps(h, it);
+    sylva_out_data[out_at + 3u] = more;
+}
+
+void sylva_element_image_main(uvec2 px) {
+    vec3 eye = vec3(sylva_pc.cam[0], sylva_pc.cam[1], sylva_pc.cam[2]);
+    vec3 w = vec3(sylva_pc.cam[3], sylva_pc.cam[4], sylva_pc.cam[5]);
+    vec3 u = vec3(sylva_pc.cam[6], sylva_pc.cam[7], sylva_pc.cam[8]);
+    vec3 v = vec3(sylva_pc.cam[9], sylva_pc.cam[10], sylva_pc.cam[11]);
+    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, sylva_pc.width, sylva_pc.height);
+    uint steps;
+    uint status;
+    vec4 c = sylva_elements_composite(0u, sylva_pc.word_count, 0u, sylva_pc.elem_count, eye, d, 0.0f, sylva_inf(),
+                                      sylva_pc.alpha_stop, steps, status);
+    uint at = (px.y * sylva_pc.width + px.x) * 6u;
+    sylva_out_data[at] = floatBitsToUint(c.x);
+    sylva_out_data[at + 1u] = floatBitsToUint(c.y);
+    sylva_out_data[at + 2u] = floatBitsToUint(c.z);
+    sylva_out_data[at + 3u] = floatBitsToUint(c.w);
+    sylva_out_data[at + 4u] = steps;
+    sylva_out_data[at + 5u] = status;
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= sylva_pc.width || px.y >= sylva_pc.height) return;
+    if (sylva_pc.mode == 0u) {
+        uint r = px.y * sylva_pc.width + px.x;
+        if (r < sylva_pc.ray_count) sylva_element_hits_main(r);
+    } else {
+        sylva_element_image_main(px);
+    }
+}
+
+#endif  // SYLVA_SHARED_ELEMENT_MAIN_GLSL

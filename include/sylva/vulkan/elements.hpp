@@ -1,0 +1,170 @@
+// sylva/vulkan/elements.hpp -- the generic element kernels on a Vulkan device: a user's element
+// shader (five lines, see sylva/shared/element_prologue.glsl) compiled to SPIR-V, bound to an
+// encoded BIH (DeviceBih) and the element records (pack_elements). Same results as the host's
+// sylva/render/elements.hpp: hit sequences equal bit for bit when the element's interval avoids
+// transcendental functions; images within a tolerance (docs/DESIGN.md, parity rules).
+//
+//   sylva::vk::Context ctx;
+//   sylva::vk::DeviceBih bih(ctx, words);
+//   sylva::vk::ElementKernel kernel(ctx, my_spirv);          // e.g. an embedded sylva::spirv::<name>
+//   sylva::vk::DeviceRecords recs(ctx, records);
+//   auto hits  = kernel.hits(bih, recs, rays, ranges, 16);   // per ray, in order
+//   auto frame = kernel.render(bih, recs, camera, 640, 480);
+#ifndef SYLVA_VULKAN_ELEMENTS_HPP
+#define SYLVA_VULKAN_ELEMENTS_HPP
+
+#include <array>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sylva/core/error.hpp"
+#include "sylva/core/ray.hpp"
+#include "sylva/render/camera.hpp"
+#include "sylva/render/elements.hpp"
+#include "sylva/vulkan/bih.hpp"
+#include "sylva/vulkan/kernel.hpp"
+#include "sylva/vulkan/runner.hpp"
+
+namespace sylva::vk {
+
+/// Push constants of sylva/shared/element_prologue.glsl (80 bytes).
+struct ElementPush {
+    std::array<float, 12> cam{};
+    std::uint32_t width = 0, height = 0, word_count = 0, elem_count = 0;
+    std::uint32_t mode = 0, max_hits = 0;
+    float alpha_stop = 0.99f;
+    std::uint32_t ray_count = 0;
+};
+static_assert(sizeof(ElementPush) == 80);
+
+/// Element records uploaded once. `record_words` is sylva::element_words<E>() of their type.
+class DeviceRecords {
+public:
+    DeviceRecords(Context& ctx, std::span<const std::uint32_t> records, std::uint32_t record_words)
+        : buffer_(ctx, std::max<std::size_t>(records.size(), 1) * 4) {
+        if (record_words == 0 || records.size() % record_words != 0)
+            throw Error("vk::DeviceRecords: " + std::to_string(records.size()) +
+                        " words are not a whole number of " + std::to_string(record_words) + "-word records");
+        if (records.size() / record_words > 0xFFFFFFFFu) throw Error("vk::DeviceRecords: too many records");
+        if (!records.empty()) buffer_.upload(records);
+        count_ = static_cast<std::uint32_t>(records.size() / record_words);
+    }
+    /// Records held.
+    [[nodiscard]] std::uint32_t count() const { return count_; }
+    [[nodiscard]] Buffer* buffer() { return &buffer_; }
+
+private:
+    Buffer buffer_;
+    std::uint32_t count_ = 0;
+};
+
+/// A user's element shader: SPIR-V of a .comp that includes element_prologue.glsl, the element
+/// header and element_main.glsl. Pipelines are made per BIH stack depth and split shift (the
+/// specialization constants) and kept.
+class ElementKernel {
+public:
+    /// Copies the SPIR-V; checks it (sylva::vk::Kernel) when the first pipeline is made.
+    ElementKernel(Context& ctx, std::span<const std::uint32_t> spirv) : ctx_(&ctx), spirv_(spirv.begin(), spirv.end()) {
+        if (spirv_.empty()) throw Error("vk::ElementKernel: empty SPIR-V");
+    }
+
+    /// Hits of each ray over its range, in order, at most max_hits each (max_hits 1: first hit).
+    std::vector<ElementHits> hits(DeviceBih& bih, DeviceRecords& recs, std::span<const Ray> rays,
+                                  std::span<const Interval> ranges, std::uint32_t max_hits) {
+        check(bih, "hits");
+        if (rays.size() != ranges.size()) throw Error("vk::ElementKernel::hits: rays and ranges differ in number");
+        if (max_hits == 0 || max_hits > (1u << 20)) throw Error("vk::ElementKernel::hits: max_hits must be 1 .. 2^20");
+        if (rays.empty()) return {};
+        std::vector<std::uint32_t> in(rays.size() * 8);
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            float f[8] = {rays[i].origin.x,    rays[i].origin.y,    rays[i].origin.z, rays[i].direction.x,
+                          rays[i].direction.y, rays[i].direction.z, ranges[i].t0,     ranges[i].t1};
+            std::memcpy(&in[i * 8], f, sizeof f);
+        }
+        const std::size_t stride = 4 + 3 * std::size_t{max_hits};
+        Buffer ray_buf(*ctx_, in.size() * 4), out_buf(*ctx_, rays.size() * stride * 4);
+        ray_buf.upload(in);
+        ElementPush push;
+        push.width = static_cast<std::uint32_t>(std::min<std::size_t>(rays.size(), 256));
+        push.height = static_cast<std::uint32_t>((rays.size() + push.width - 1) / push.width);
+        push.word_count = bih.word_count();
+        push.elem_count = recs.count();
+        push.mode = 0;
+        push.max_hits = max_hits;
+        push.ray_count = static_cast<std::uint32_t>(rays.size());
+        std::array<Buffer*, 7> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), recs.buffer(), &ray_buf, &out_buf};
+        ctx_->dispatch(kernel_for(bih), bind, &push, sizeof push, groups_for(push.width, 8), groups_for(push.height, 8));
+        std::vector<std::uint32_t> raw(rays.size() * stride);
+        out_buf.download(raw);
+        std::vector<ElementHits> out(rays.size());
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            const std::uint32_t* r = &raw[i * stride];
+            std::uint32_t n = std::min(r[0], max_hits);
+            out[i].status = r[1] & 255u;
+            out[i].passes = r[1] >> 8;
+            out[i].steps = r[2];
+            out[i].more = r[3] != 0;
+            for (std::uint32_t k = 0; k < n; ++k) {
+                shared::SylvaHit h;
+                h.elem = r[4 + 3 * k];
+                std::memcpy(&h.t0, &r[5 + 3 * k], 4);
+                std::memcpy(&h.t1, &r[6 + 3 * k], 4);
+                out[i].hits.push_back(h);
+            }
+        }
+        return out;
+    }
+
+    /// Front-to-back compositing of a camera image; same layout as sylva::render_elements_cpu.
+    Frame render(DeviceBih& bih, DeviceRecords& recs, const CameraFrame& cam, std::uint32_t width,
+                 std::uint32_t height, const ParticleRenderConfig& cfg = {}) {
+        check(bih, "render");
+        Buffer dummy_rays(*ctx_, 32), out_buf(*ctx_, std::max<std::size_t>(std::size_t{width} * height, 1) * 6 * 4);
+        ElementPush push;
+        push.cam = cam.floats();
+        push.width = width;
+        push.height = height;
+        push.word_count = bih.word_count();
+        push.elem_count = recs.count();
+        push.mode = 1;
+        push.alpha_stop = cfg.alpha_stop;
+        std::array<Buffer*, 7> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), recs.buffer(), &dummy_rays, &out_buf};
+        Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
+        if (f.rgba.empty()) return f;
+        f.ms = ctx_->dispatch(kernel_for(bih), bind, &push, sizeof push, groups_for(width, 8), groups_for(height, 8));
+        std::vector<std::uint32_t> px(std::size_t{width} * height * 6);
+        out_buf.download(px);
+        for (std::size_t i = 0; i < f.rgba.size(); ++i) {
+            std::memcpy(&f.rgba[i], &px[i * 6], 16);
+            f.steps[i] = px[i * 6 + 5] == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : px[i * 6 + 4];
+        }
+        return f;
+    }
+
+private:
+    void check(const DeviceBih& bih, const char* what) const {
+        if (bih.kind() != SYLVA_PAYLOAD_RANGE)
+            throw Error(std::string("vk::ElementKernel::") + what + ": the BIH's payload kind " +
+                        std::to_string(bih.kind()) + " is not record ranges (SYLVA_PAYLOAD_RANGE, 0)");
+    }
+    Kernel& kernel_for(DeviceBih& bih) {
+        auto c = bih.constants();
+        auto key = (std::uint64_t{c[0]} << 32) | c[1];
+        auto found = kernels_.find(key);
+        if (found == kernels_.end())
+            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv_, 7, 80, c)).first;
+        return *found->second;
+    }
+
+    Context* ctx_;
+    std::vector<std::uint32_t> spirv_;
+    std::map<std::uint64_t, std::unique_ptr<Kernel>> kernels_;
+};
+
+}  // namespace sylva::vk
+
+#endif  // SYLVA_VULKAN_ELEMENTS_HPP
