@@ -377,3 +377,12 @@ sylva_render_test(octree_ooc_without_octree RC 2 ERR "--frames, --frames-out, --
   ARGS --volume procedural:ml --frames 4 -o ${_out}/x.png)
 sylva_render_test(octree_ooc_budget_too_small RC 1 ERR "holds no brick"
   ARGS --volume procedural:ml --index octree --brick 16 --frames 2 --device-budget 1K -o ${_out}/x.png)
+# --index kd and --index octree draw particles into identical images, still and moving (issue 14).
+foreach(run still animate)
+  add_test(NAME examples.sylva_render.particles_same_image_${run}
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:sylva-render> -DOUT=${_out} -DRUN=${run}
+                   -P ${CMAKE_CURRENT_SOURCE_DIR}/particle_index_check.cmake)
+  set_tests_properties(examples.sylva_render.particles_same_image_${run} PROPERTIES LABELS "plugins")
+endforeach()
+sylva_render_test(kd_volume RC 2 ERR "--index kd renders particles"
+  ARGS --index kd --volume procedural -o ${_out}/x.png)

@@ -19,6 +19,7 @@
 #endif
 
 #include "options.hpp"
+#include "kd_particles_scene.hpp"
 #include "particle_octree_scene.hpp"
 #include "stats.hpp"
 #include "volume_scene.hpp"
@@ -80,6 +81,8 @@ int run(const Options& o) {
     s.backend = o.backend;
     std::vector<Sphere> spheres = load_scene(o, s.input);
     ThreadPool pool(o.threads);
+    if (o.animate > 0) return run_particle_animation(o, spheres, pool, s);
+    if (o.particle_kd()) return run_particle_kd(o, spheres, pool, s);
     if (o.particle_octree()) return run_particle_octree(o, spheres, pool, s);
     bih::Tree tree = build_tree(o, spheres, pool);
     auto t0 = std::chrono::steady_clock::now();

@@ -25,6 +25,8 @@ const char* usage() {
            "isosurfaces:        [--index implicit-kd|dda] [--iso V1[,V2,V3,V4]] [--ikd-bricks N]\n"
            "octree (volumes):   [--index octree] [--brick 16|32] [--lod-pixels P] [--cut-nodes N] [--mode dvr|iso]\n"
            "octree (particles): --particles FILE --index octree, or --count N --index octree (the galaxy)\n"
+           "kd-tree (particles): --index kd (the element kd-tree: the octree's exact image)\n"
+           "moving particles:   [--animate N] [--update refit|rebuild] (--index bih|kd|octree, cpu)\n"
            "out of core:        [--index octree] [--memory-budget SIZE] [--device-budget SIZE] [--frames N]\n"
            "                    [--frames-out DIR] [--orbit] [--feedback on|off]; --volume STORE (a brick\n"
            "                    store directory made by sylva-store build) always renders out of core\n"
@@ -135,7 +137,9 @@ Options parse(int argc, char** argv) {
         };
         if (a == "--particles") o.particles = value();
         else if (a == "--volume") o.volume = value();
-        else if (a == "--index") o.index = one_of(a, value(), {"bih", "kd-vidal", "kd-binned", "implicit-kd", "dda", "octree", "none"});
+        else if (a == "--index") o.index = one_of(a, value(), {"bih", "kd", "kd-vidal", "kd-binned", "implicit-kd", "dda", "octree", "none"});
+        else if (a == "--animate") o.animate = static_cast<std::uint32_t>(number(a, value(), 1, 100000));
+        else if (a == "--update") o.update = one_of(a, value(), {"refit", "rebuild"});
         else if (a == "--brick") o.brick = static_cast<std::uint32_t>(std::stoul(one_of(a, value(), {"16", "32"})));
         else if (a == "--lod-pixels") o.lod_pixels = static_cast<float>(number(a, value(), 1e-3, 1e4));
         else if (a == "--cut-nodes") o.cut_nodes = static_cast<std::uint32_t>(number(a, value(), 1, 4294967295.0));
@@ -194,6 +198,10 @@ Options parse(int argc, char** argv) {
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
     if (o.ikd_index() && !o.volume_input())
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
+    if (o.index == "kd" && o.volume_input())
+        throw std::invalid_argument("--index kd renders particles (the element kd-tree); volumes use --index kd-vidal or kd-binned");
+    if (o.animate > 0 && (o.volume_input() || o.backend != "cpu"))
+        throw std::invalid_argument("--animate moves particles on --backend cpu (--index bih, kd or octree)");
     if (o.particle_octree()) {
         for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
             for (int i = 1; i < argc; ++i)

@@ -20,6 +20,8 @@ struct Options {
                                      ///< dda: the same over every cell (the reference); octree: Gobbetti's
                                      ///< bricked octree, DVR or first-hit iso, for volumes; the element
                                      ///< octree for --particles or --count (cpu or vulkan))
+    std::uint32_t animate = 0;       ///< --animate N: move the particles for N frames (kd_particles_scene.hpp)
+    std::string update = "refit";    ///< --update refit|rebuild: how the index follows the motion per frame
     std::uint32_t brick = 32;        ///< --brick 16|32: octree brick size
     float lod_pixels = 0.0f;         ///< --lod-pixels P: view-dependent octree cut (0: full resolution)
     std::uint32_t cut_nodes = 1u << 20;  ///< --cut-nodes N: node budget of the octree cut
@@ -96,6 +98,8 @@ struct Options {
     /// True when this run renders particles (a file or the procedural galaxy) through the
     /// element octree (--index octree with --particles, or with --count and no input).
     [[nodiscard]] bool particle_octree() const { return octree_index() && !volume_input(); }
+    /// True when this run renders particles through the element kd-tree (--index kd).
+    [[nodiscard]] bool particle_kd() const { return index == "kd" && !volume_input(); }
 };
 
 /// Parses argv; throws std::invalid_argument with a message naming the bad option.

@@ -27,8 +27,10 @@ std::vector<kdtree::ElementConfig> configs() {
     kdtree::ElementConfig def, coarse, shallow;
     coarse.bins = 4;
     coarse.leaf_elements = 1;
+    kdtree::ElementConfig small;
+    small.leaf_elements = 2;
     shallow.max_depth = 3;
-    return {def, coarse, shallow};
+    return {def, coarse, shallow, small};
 }
 
 /// Checks first hit and all hits of every ray against brute force; returns the rays that hit.

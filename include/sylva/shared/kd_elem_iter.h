@@ -165,6 +165,9 @@ SYLVA_FN void sylva_kde_init(SYLVA_OUT(SylvaKdElemIter) it, SYLVA_BUF(words), ui
     it.t_out = 0.0f;
     it.t_end = 0.0f;
     it.t_limit = t_max;
+    it.org = vec3(0.0f);
+    it.rcp = vec3(0.0f);
+    it.parallel = uvec3(0u);
     it.status = SYLVA_ITER_RUNNING;
     if (it.hdr.valid == 0u) {
         it.status = SYLVA_ITER_ERROR;
