@@ -1,97 +1,147 @@
-// capsule.h -- a user's element written once in sylva's shared C++/GLSL subset (the rules are in
-// sylva/shared/lang.h and docs/DESIGN.md): a capsule (segment a-b, radius r) of constant
-// extinction. The same text compiles as C++ (capsule.hpp wraps it in a type the library's
-// concepts accept) and as GLSL (capsule_first_hit.comp includes it).
+// capsule.h -- a user's element written once in sylva's shared C++/GLSL subset through the
+// element protocol (sylva/shared/element.h; the subset's rules are in sylva/shared/lang.h and
+// docs/DESIGN.md): a capsule (segment a-b, radius r) of constant extinction and colour. The same
+// text is the C++ type consumer::Capsule (sylva's concepts find the protocol by ADL) and the GLSL
+// struct Capsule that capsule.comp (the generic element kernel) and capsule_first_hit.comp (a
+// hand-written kernel) compile against the installed headers.
 //
-// The ray's interval in the capsule is exact up to rounding: the capsule is convex and is the
-// union of the finite cylinder around a-b and the balls at a and b, so the ray's interval in it
-// is [min entry, max exit] over the parts the ray meets. Only +, -, *, / and sqrt are used.
+// The interval is exact up to rounding: the capsule is convex and is the union of the finite
+// cylinder around a-b and the balls at a and b, so the ray's interval in it is the hull of the
+// parts' intervals. Only + - * / sqrt: hit sequences are equal bit for bit on host and lavapipe.
+// Each part uses the closest-approach form (distance at the nearest point, then the half chord),
+// not the textbook discriminant b^2 - a c, which cancels on grazing rays and can report hits
+// outside bounds() (the conformance kit finds those: see sylva/testing/conformance.hpp).
+//
+// Record (12 words): 0-2 a, 3-5 b, 6 radius, 7 extinction per unit length, 8-10 RGB, 11 zero.
 #ifndef CONSUMER_CAPSULE_H
 #define CONSUMER_CAPSULE_H
 
-#include "sylva/shared/lang.h"
+#include "sylva/shared/element.h"
 
-#ifdef __cplusplus
-namespace consumer {
-using namespace sylva::shared;
-#endif
+SYLVA_USER_BEGIN_NAMESPACE(consumer)
 
-/// Words per capsule record in the element buffer: a.xyz, r, b.xyz, extinction (float bits).
-#define CAPSULE_WORDS 8u
+struct Capsule {
+    vec3 a SYLVA_DEFAULT(vec3(0.0f));
+    vec3 b SYLVA_DEFAULT(vec3(0.0f));
+    float radius SYLVA_DEFAULT(0.1f);
+    float extinction SYLVA_DEFAULT(1.0f);
+    vec3 rgb SYLVA_DEFAULT(vec3(1.0f));
+};
 
-/// Grows [lo, hi] (x = lo, y = hi; empty when x > y) by [t0, t1].
-SYLVA_FN vec2 capsule_union(vec2 acc, float t0, float t1) {
-    return vec2(acc.x < t0 ? acc.x : t0, acc.y > t1 ? acc.y : t1);
+SYLVA_FN uint sylva_elem_words(Capsule x) {
+    SYLVA_UNUSED(x);
+    return 12u;
 }
 
-/// The ray's interval inside the ball (p, r), added to acc.
-SYLVA_FN vec2 capsule_ball(vec2 acc, vec3 p, float r, vec3 o, vec3 d) {
-    vec3 op = vec3(o.x - p.x, o.y - p.y, o.z - p.z);
-    float dd = dot(d, d);
-    float b = dot(op, d);
-    float c = dot(op, op) - r * r;
-    float disc = b * b - dd * c;
-    if (!(disc >= 0.0f) || !(dd > 0.0f)) return acc;
-    float s = sqrt(disc);
-    return capsule_union(acc, (-b - s) / dd, (-b + s) / dd);
+SYLVA_FN void sylva_elem_load(SYLVA_BUF(elems), uint e, SYLVA_OUT(Capsule) x) {
+    uint at = e * 12u;
+    x.a = sylva_rec_vec3(SYLVA_PASS_BUF(elems), at);
+    x.b = sylva_rec_vec3(SYLVA_PASS_BUF(elems), at + 3u);
+    x.radius = sylva_rec_f(SYLVA_PASS_BUF(elems), at + 6u);
+    x.extinction = sylva_rec_f(SYLVA_PASS_BUF(elems), at + 7u);
+    x.rgb = sylva_rec_vec3(SYLVA_PASS_BUF(elems), at + 8u);
 }
 
-/// The ray's interval inside the finite cylinder around a-b (radius r), added to acc.
-SYLVA_FN vec2 capsule_cylinder(vec2 acc, vec3 a, vec3 b, float r, vec3 o, vec3 d) {
+SYLVA_FN void sylva_elem_bounds(Capsule x, SYLVA_OUT(vec3) lo, SYLVA_OUT(vec3) hi) {
+    float r = x.radius;
+    lo = vec3(sylva_min(x.a.x, x.b.x) - r, sylva_min(x.a.y, x.b.y) - r, sylva_min(x.a.z, x.b.z) - r);
+    hi = vec3(sylva_max(x.a.x, x.b.x) + r, sylva_max(x.a.y, x.b.y) + r, sylva_max(x.a.z, x.b.z) + r);
+}
+
+/// The chord of a ray whose closest approach to a centre (or axis) is at tc, squared distance
+/// dist2 there, against radius r; qa is the squared length of the direction (its part across
+/// the axis for the cylinder). Empty when it passes outside.
+SYLVA_FN vec2 consumer_chord(float tc, float dist2, float r, float qa) {
+    float rr = r * r;
+    if (!(dist2 <= rr) || !(qa > 0.0f)) return sylva_no_interval();
+    float w = sqrt((rr - dist2) / qa);
+    return vec2(tc - w, tc + w);
+}
+
+/// The interval of o + t d inside the ball of centre p and radius r.
+SYLVA_FN vec2 consumer_ball(vec3 p, float r, vec3 o, vec3 d) {
+    vec3 op = vec3(p.x - o.x, p.y - o.y, p.z - o.z);
+    float qa = dot(d, d);
+    if (!(qa > 0.0f)) return sylva_no_interval();
+    float tc = dot(op, d) / qa;
+    vec3 q = vec3(o.x + tc * d.x - p.x, o.y + tc * d.y - p.y, o.z + tc * d.z - p.z);
+    return consumer_chord(tc, dot(q, q), r, qa);
+}
+
+/// The interval inside the cylinder of radius r around segment a-b, between its end planes.
+SYLVA_FN vec2 consumer_tube(vec3 a, vec3 b, float r, vec3 o, vec3 d) {
     vec3 ba = vec3(b.x - a.x, b.y - a.y, b.z - a.z);
-    float baba = dot(ba, ba);
-    if (!(baba > 0.0f)) return acc;
     vec3 oa = vec3(o.x - a.x, o.y - a.y, o.z - a.z);
-    float dpar = dot(d, ba) / baba;
-    float opar = dot(oa, ba) / baba;
-    // The slab 0 <= opar + t dpar <= 1 between the end caps.
-    float s0 = -3.0e38f;
-    float s1 = 3.0e38f;
-    if (dpar != 0.0f) {
-        float u = (0.0f - opar) / dpar;
-        float v = (1.0f - opar) / dpar;
-        s0 = u < v ? u : v;
-        s1 = u < v ? v : u;
-    } else if (opar < 0.0f || opar > 1.0f) {
-        return acc;
-    }
-    // The infinite cylinder: |(o + t d) - a - ((o + t d - a).ba / baba) ba|^2 <= r^2.
-    vec3 dp = vec3(d.x - ba.x * dpar, d.y - ba.y * dpar, d.z - ba.z * dpar);
-    vec3 op = vec3(oa.x - ba.x * opar, oa.y - ba.y * opar, oa.z - ba.z * opar);
+    float len2 = dot(ba, ba);
+    if (!(len2 > 0.0f)) return sylva_no_interval();
+    float kd = dot(d, ba) / len2;
+    float ko = dot(oa, ba) / len2;
+    // Across the axis: the ray's offset op + t dp from the axis.
+    vec3 dp = vec3(d.x - kd * ba.x, d.y - kd * ba.y, d.z - kd * ba.z);
+    vec3 op = vec3(oa.x - ko * ba.x, oa.y - ko * ba.y, oa.z - ko * ba.z);
     float qa = dot(dp, dp);
-    float qb = dot(op, dp);
-    float qc = dot(op, op) - r * r;
-    float c0 = -3.0e38f;
-    float c1 = 3.0e38f;
+    vec2 t = vec2(-sylva_inf(), sylva_inf());
     if (qa > 0.0f) {
-        float disc = qb * qb - qa * qc;
-        if (!(disc >= 0.0f)) return acc;
-        float s = sqrt(disc);
-        c0 = (-qb - s) / qa;
-        c1 = (-qb + s) / qa;
-    } else if (qc > 0.0f) {
-        return acc;  // parallel to the axis, outside the radius
+        float tc = -dot(op, dp) / qa;
+        vec3 q = vec3(op.x + tc * dp.x, op.y + tc * dp.y, op.z + tc * dp.z);
+        t = consumer_chord(tc, dot(q, q), r, qa);
+        if (!(t.x <= t.y)) return t;
+    } else if (!(dot(op, op) <= r * r)) {
+        return sylva_no_interval();  // parallel to the axis, outside the radius
     }
-    float t0 = s0 > c0 ? s0 : c0;
-    float t1 = s1 < c1 ? s1 : c1;
-    if (t0 > t1) return acc;
-    return capsule_union(acc, t0, t1);
+    // End planes: 0 <= ko + t kd <= 1 along the axis.
+    if (kd != 0.0f) {
+        float ta = (0.0f - ko) / kd;
+        float tb = (1.0f - ko) / kd;
+        t = vec2(sylva_max(t.x, sylva_min(ta, tb)), sylva_min(t.y, sylva_max(ta, tb)));
+    } else if (!(ko >= 0.0f && ko <= 1.0f)) {
+        return sylva_no_interval();
+    }
+    return t;
 }
 
-/// The ray's interval [x, y] inside the capsule within [t_min, t_max]; x > y when it misses.
-SYLVA_FN vec2 capsule_interval(vec3 a, vec3 b, float r, vec3 o, vec3 d, float t_min, float t_max) {
-    vec2 acc = vec2(3.0e38f, -3.0e38f);
-    if (!(r > 0.0f)) return acc;
-    acc = capsule_ball(acc, a, r, o, d);
-    acc = capsule_ball(acc, b, r, o, d);
-    acc = capsule_cylinder(acc, a, b, r, o, d);
-    float t0 = acc.x > t_min ? acc.x : t_min;
-    float t1 = acc.y < t_max ? acc.y : t_max;
-    return vec2(t0, t1);
+/// The hull of the tube's and the two balls' intervals, clipped to [t0, t1].
+SYLVA_FN vec2 sylva_elem_interval(Capsule x, vec3 o, vec3 d, float t0, float t1) {
+    vec2 pa = consumer_ball(x.a, x.radius, o, d);
+    vec2 pb = consumer_ball(x.b, x.radius, o, d);
+    vec2 pt = consumer_tube(x.a, x.b, x.radius, o, d);
+    float lo = sylva_inf();
+    float hi = -sylva_inf();
+    if (pa.x <= pa.y) {
+        lo = sylva_min(lo, pa.x);
+        hi = sylva_max(hi, pa.y);
+    }
+    if (pb.x <= pb.y) {
+        lo = sylva_min(lo, pb.x);
+        hi = sylva_max(hi, pb.y);
+    }
+    if (pt.x <= pt.y) {
+        lo = sylva_min(lo, pt.x);
+        hi = sylva_max(hi, pt.y);
+    }
+    lo = sylva_max(lo, t0);
+    hi = sylva_min(hi, t1);
+    return (lo <= hi) ? vec2(lo, hi) : sylva_no_interval();
+}
+
+/// Constant extinction over [t0, t1]: optical depth extinction * path length, colour rgb.
+SYLVA_FN vec4 sylva_elem_medium(Capsule x, vec3 o, vec3 d, float t0, float t1) {
+    SYLVA_UNUSED(o);
+    float path = (t1 - t0) * sqrt(dot(d, d));
+    return vec4(x.rgb.x, x.rgb.y, x.rgb.z, x.extinction * sylva_max(path, 0.0f));
 }
 
 #ifdef __cplusplus
-}  // namespace consumer
+/// C++ only: the record sylva_elem_load reads.
+inline void sylva_elem_store(const Capsule& x, ::sylva::shared::RecordOut out) {
+    out.v3(0u, x.a);
+    out.v3(3u, x.b);
+    out.f(6u, x.radius);
+    out.f(7u, x.extinction);
+    out.v3(8u, x.rgb);
+}
 #endif
+
+SYLVA_USER_END_NAMESPACE
 
 #endif  // CONSUMER_CAPSULE_H

@@ -1,11 +1,12 @@
 #version 460
-// A user's shader over sylva's installed headers: per ray, the first capsule hit (least entry t,
-// then least element index, as sylva::bih::first_hit) and the number of capsules hit, walking an
-// encoded BIH (RangePayload) with the shared iterator and testing capsule.h, the same text the
-// host compiles.
+// A hand-written user shader over sylva's installed headers (no generic kernel): per ray, the
+// first capsule hit (least entry t, then least element index, as sylva::bih::first_hit) and the
+// number of capsules hit, walking an encoded BIH (RangePayload) with the shared iterator and
+// testing capsule.h, the same text the host compiles. It exercises the generic host API
+// (vk::upload_buffer, vk::Bindings, vk::Kernel) that any user kernel binds through.
 //
 // Bindings: 0-3 the encoded BIH (SYLVA_SPLIT_WORDS); 4 capsule records in the tree's leaf order
-// (CAPSULE_WORDS each); 5 the tree's order (leaf position -> element index); 6 rays, 8 floats
+// (12 words each, sylva::pack_elements); 5 the tree's order (leaf position -> element index); 6 rays, 8 floats
 // each (origin, direction, t0, t1); 7 output, 5 words per ray: element (0xFFFFFFFF: none),
 // entry t, exit t (float bits), capsules hit, iterator status.
 // Specialization constants: 0 split shift, 1 stack entries (>= the tree's depth).
@@ -17,7 +18,7 @@ layout(constant_id = 1) const int STACK_SIZE = 64;
 
 #include "sylva/shared/split_words.glsl"
 SYLVA_SPLIT_WORDS(words, 0, SPLIT_SHIFT)
-layout(std430, binding = 4) readonly buffer Capsules { float capsules[]; };
+layout(std430, binding = 4) readonly buffer Capsules { uint capsule_words[]; };
 layout(std430, binding = 5) readonly buffer Order { uint order_of[]; };
 layout(std430, binding = 6) readonly buffer Rays { float rays[]; };
 layout(std430, binding = 7) writeonly buffer Hits { uint hits[]; };
@@ -26,6 +27,9 @@ layout(push_constant) uniform Push {
     uint word_count;
     uint element_count;
 } pc;
+
+// The element protocol reads records through sylva_load_elems (the buffer-name rule of lang.h).
+uint sylva_load_elems(uint i) { return i < uint(capsule_words.length()) ? capsule_words[i] : 0u; }
 
 #include "sylva/shared/bih_iter.h"
 #include "capsule.h"
@@ -53,10 +57,9 @@ void main() {
             break;
         }
         for (uint k = 0u; k < payload.y; ++k) {
-            uint at = (payload.x + k) * CAPSULE_WORDS;
-            vec3 a = vec3(capsules[at], capsules[at + 1u], capsules[at + 2u]);
-            vec3 b = vec3(capsules[at + 4u], capsules[at + 5u], capsules[at + 6u]);
-            vec2 t = capsule_interval(a, b, capsules[at + 3u], o, d, t_min, t_max);
+            Capsule c;
+            sylva_elem_load(0u, payload.x + k, c);
+            vec2 t = sylva_elem_interval(c, o, d, t_min, t_max);
             if (!(t.x <= t.y)) continue;
             ++count;
             uint e = order_of[payload.x + k];
