@@ -6,7 +6,9 @@
 // Motion (deterministic, the same in every run): particle i oscillates along its own unit
 // direction d_i (from the golden angle) by A sin(2 pi f / 16 + i), A = 2 % of the particles'
 // box's largest extent; frame f = 1..N. Per frame the index follows (refit or rebuild), is
-// encoded, the records are packed and the frame is rendered; the last frame is written.
+// encoded, the records are packed and the frame is rendered; the last frame is written. The BIH
+// is the query layout (4 particles a leaf, untrimmed, RangePayload records) whatever --payload
+// says: a refit keeps leaves, so leaves trimmed to one particle would not stay trimmed.
 #ifndef SYLVA_RENDER_KD_PARTICLES_SCENE_HPP
 #define SYLVA_RENDER_KD_PARTICLES_SCENE_HPP
 
@@ -108,8 +110,6 @@ inline void move_particles(std::span<const sylva::Sphere> base, std::uint32_t fr
 inline int run_particle_animation(const Options& o, std::span<const sylva::Sphere> base, sylva::ThreadPool& pool,
                                   Stats& s) {
     using namespace sylva;
-    if (o.index == "bih" && o.payload == "inline")
-        throw Error("--animate with --index bih needs --payload range (inline payloads trim leaves to one particle)");
     Aabb box;
     for (const Sphere& p : base) box.extend(bounds_of(p));
     vec3 ext = box.empty() ? vec3(1.0f) : box.extent();
