@@ -149,71 +149,90 @@ struct EssBucketMap {
     }
 };
 
+/// Buckets a constant border adds to the neighbourhoods of the grid's boundary voxels (their
+/// out-of-grid neighbours read the border value, sylva/shared/grid_sample.h); for a clamped
+/// border the neutral pair (255, 0): the edge voxel is already in the neighbourhood.
+struct EssBorder {
+    std::uint8_t lo = 255;
+    std::uint8_t hi = 0;
+};
+
+inline EssBorder ess_border(const GridBorder& b, std::uint32_t entries) {
+    b.check();
+    if (b.mode == BorderMode::Clamp) return {};
+    constexpr float eps = 1.0f / 1048576.0f;
+    EssBucketMap bucket(entries);
+    return {bucket(b.value - eps), bucket(b.value + eps)};
+}
+
 /// One pass of a 3-wide min (lo) / max (hi) filter over `count` lines of `n` entries along an
-/// axis whose neighbours are `n` entries apart, in `outer` independent blocks; src -> dst.
+/// axis whose neighbours are `n` entries apart, in `outer` independent blocks; src -> dst. The
+/// first and last lines also take the border's buckets.
 template <Executor X>
 void ess_filter_pass(const std::vector<std::uint8_t>& slo, const std::vector<std::uint8_t>& shi,
                      std::vector<std::uint8_t>& dlo, std::vector<std::uint8_t>& dhi, std::size_t n, std::size_t count,
-                     std::size_t outer, X& exec) {
+                     std::size_t outer, EssBorder border, X& exec) {
     exec.parallel_for(0, outer * count, 1, [&](std::size_t j0, std::size_t j1) {
         for (std::size_t j = j0; j < j1; ++j) {
             std::size_t o = j / count, i = j % count, base = o * count * n;
             std::size_t a = base + (i > 0 ? i - 1 : i) * n, b = base + i * n, c = base + (i + 1 < count ? i + 1 : i) * n;
+            bool edge = i == 0 || i + 1 == count;
+            std::uint8_t elo = edge ? border.lo : 255, ehi = edge ? border.hi : 0;
             for (std::size_t k = 0; k < n; ++k) {
-                dlo[b + k] = std::min(std::min(slo[a + k], slo[b + k]), slo[c + k]);
-                dhi[b + k] = std::max(std::max(shi[a + k], shi[b + k]), shi[c + k]);
+                dlo[b + k] = std::min(std::min(std::min(slo[a + k], slo[b + k]), slo[c + k]), elo);
+                dhi[b + k] = std::max(std::max(std::max(shi[a + k], shi[b + k]), shi[c + k]), ehi);
             }
         }
     });
 }
 
-/// Per voxel the buckets of d - eps and d + eps, then the 3-wide filter along x, per row.
-template <Executor X>
-void ess_rows(const volume::DensityGrid& g, std::uint32_t entries, std::vector<std::uint8_t>& lo,
-              std::vector<std::uint8_t>& hi, X& exec) {
+/// Per voxel the buckets of d - eps and d + eps (d = density(i)), then the 3-wide filter
+/// along x, per row (the row's ends also take the border's buckets).
+template <Executor X, class Density>
+void ess_rows(const Density& density, volume::Dims dims, std::uint32_t entries, EssBorder border,
+              std::vector<std::uint8_t>& lo, std::vector<std::uint8_t>& hi, X& exec) {
     constexpr float eps = 1.0f / 1048576.0f;  // 2^-20: above the rounding of three lerps
-    std::uint32_t nx = g.dims.x;
-    std::size_t rows = std::size_t{g.dims.y} * g.dims.z;
+    std::uint32_t nx = dims.x;
+    std::size_t rows = std::size_t{dims.y} * dims.z;
     EssBucketMap bucket(entries);
     exec.parallel_for(0, rows, 64, [&](std::size_t r0, std::size_t r1) {
         std::vector<std::uint8_t> blo(nx), bhi(nx);
         for (std::size_t r = r0; r < r1; ++r) {
-            const float* v = &g.values[r * nx];
             for (std::uint32_t x = 0; x < nx; ++x) {
-                if (std::isnan(v[x])) throw Error("kd-dvr: the grid holds a NaN density");
-                blo[x] = bucket(v[x] - eps);
-                bhi[x] = bucket(v[x] + eps);
+                float v = density(r * nx + x);
+                if (std::isnan(v)) throw Error("kd-dvr: the grid holds a NaN density");
+                blo[x] = bucket(v - eps);
+                bhi[x] = bucket(v + eps);
             }
             for (std::uint32_t x = 0; x < nx; ++x) {
                 std::uint32_t a = x > 0 ? x - 1 : x, c = x + 1 < nx ? x + 1 : x;
-                lo[r * nx + x] = std::min(std::min(blo[a], blo[x]), blo[c]);
-                hi[r * nx + x] = std::max(std::max(bhi[a], bhi[x]), bhi[c]);
+                bool edge = x == 0 || x + 1 == nx;
+                lo[r * nx + x] = std::min(std::min(std::min(blo[a], blo[x]), blo[c]), edge ? border.lo : std::uint8_t{255});
+                hi[r * nx + x] = std::max(std::max(std::max(bhi[a], bhi[x]), bhi[c]), edge ? border.hi : std::uint8_t{0});
             }
         }
     });
 }
 
-}  // namespace detail
-
-/// The segment codes of `g` for a TF of `entries` entries (see EssCodes), in parallel. Throws
-/// sylva::Error when the values do not match the dimensions or one is NaN.
-template <Executor X>
-EssCodes ess_codes(const volume::DensityGrid& g, std::uint32_t entries, X& exec) {
+/// The segment codes of the n voxels of `dims` whose densities `density(i)` gives.
+template <Executor X, class Density>
+EssCodes ess_codes_of(const Density& density, volume::Dims dims, vec3 spacing, std::uint32_t entries,
+                      const GridBorder& gb, X& exec) {
     auto t0 = std::chrono::steady_clock::now();
-    std::size_t n = volume::voxel_count(g.dims);
-    if (g.values.size() != n || n == 0)
-        throw Error("kd-dvr: the grid holds " + std::to_string(g.values.size()) + " values for " + std::to_string(n) +
-                    " voxels");
+    std::size_t n = volume::voxel_count(dims);
     if (entries < 2 || entries > (1u << 24)) throw Error("kd-dvr: the transfer function needs 2 to 2^24 entries");
+    EssBorder border = ess_border(gb, entries);
     std::vector<std::uint8_t> lo(n), hi(n), lo2(n), hi2(n);
-    detail::ess_rows(g, entries, lo, hi, exec);
-    detail::ess_filter_pass(lo, hi, lo2, hi2, g.dims.x, g.dims.y, g.dims.z, exec);                  // along y
-    detail::ess_filter_pass(lo2, hi2, lo, hi, std::size_t{g.dims.x} * g.dims.y, g.dims.z, 1, exec);  // along z
+    ess_rows(density, dims, entries, border, lo, hi, exec);
+    ess_filter_pass(lo, hi, lo2, hi2, dims.x, dims.y, dims.z, border, exec);                     // along y
+    ess_filter_pass(lo2, hi2, lo, hi, std::size_t{dims.x} * dims.y, dims.z, 1, border, exec);  // along z
+    std::vector<std::uint8_t>().swap(lo2);  // peak 4 bytes a voxel (not 6) while the codes are written
+    std::vector<std::uint8_t>().swap(hi2);
     EssCodes c;
     c.entries = entries;
     c.volume.type = volume::ScalarType::U16;
-    c.volume.dims = g.dims;
-    c.volume.spacing = g.spacing;
+    c.volume.dims = dims;
+    c.volume.spacing = spacing;
     c.volume.range_lo = 0.0f;
     c.volume.range_hi = 65535.0f;
     c.volume.bytes.resize(n * 2);
@@ -225,6 +244,35 @@ EssCodes ess_codes(const volume::DensityGrid& g, std::uint32_t entries, X& exec)
     });
     c.ms = detail::ess_ms_since(t0);
     return c;
+}
+
+}  // namespace detail
+
+/// The segment codes of `g` for a TF of `entries` entries (see EssCodes), in parallel, for a
+/// marcher whose grid has the border `border` (the boundary voxels' neighbourhoods hold the
+/// border value when it is constant). Throws sylva::Error when the values do not match the
+/// dimensions or one is NaN.
+template <Executor X>
+EssCodes ess_codes(const volume::DensityGrid& g, std::uint32_t entries, X& exec, const GridBorder& border = {}) {
+    std::size_t n = volume::voxel_count(g.dims);
+    if (g.values.size() != n || n == 0)
+        throw Error("kd-dvr: the grid holds " + std::to_string(g.values.size()) + " values for " + std::to_string(n) +
+                    " voxels");
+    return detail::ess_codes_of([&](std::size_t i) { return g.values[i]; }, g.dims, g.spacing, entries, border, exec);
+}
+
+/// The segment codes of grid words in any format (GridWords::native: no float copy), with the
+/// grid's own border.
+template <Executor X>
+EssCodes ess_codes(const GridWords& g, std::uint32_t entries, X& exec) {
+    g.sampling.check();
+    if (g.words.size() != g.expected_words())
+        throw Error("kd-dvr: GridWords holds " + std::to_string(g.words.size()) + " words for its dimensions");
+    shared::Words w{g.words.data(), g.words.size()};
+    shared::SylvaGridDesc desc = g.desc();
+    return detail::ess_codes_of(
+        [&](std::size_t i) { return shared::sylva_grid_word_density(w, desc, static_cast<std::uint32_t>(i)); }, g.dims,
+        g.spacing, entries, g.sampling.border, exec);
 }
 
 /// The code of voxel i.
@@ -250,11 +298,19 @@ volume::Occupancy ess_occupancy(const EssCodes& codes, const EssClassifier& cls,
 
 /// Rebuilds the ESS kd-tree of one density grid when the transfer function changes, through
 /// kdtree::Rebuilder over the segment codes (recomputed only when the TF's entry count
-/// changes). The grid and the executor must outlive it.
+/// changes). The grid and the executor must outlive it. The tree is exact for a marcher whose
+/// grid has the same border (GridWords::from's default, constant 0, for a DensityGrid).
 template <Executor X>
 class EssRebuilder {
 public:
-    EssRebuilder(const volume::DensityGrid& g, const kdtree::Config& cfg, X& exec) : grid_(&g), exec_(&exec), cfg_(cfg) {
+    EssRebuilder(const volume::DensityGrid& g, const kdtree::Config& cfg, X& exec, const GridBorder& border = {})
+        : grid_(&g), exec_(&exec), cfg_(cfg), border_(border) {
+        kdtree::detail::check_config(cfg);
+        border.check();
+    }
+    /// Over grid words in any format (GridWords::native), with the grid's own border.
+    EssRebuilder(const GridWords& g, const kdtree::Config& cfg, X& exec)
+        : words_(&g), exec_(&exec), cfg_(cfg), border_(g.sampling.border) {
         kdtree::detail::check_config(cfg);
     }
     EssRebuilder(const EssRebuilder&) = delete;
@@ -285,13 +341,16 @@ private:
     void prepare(std::uint32_t entries) {
         if (codes_ && codes_->entries == entries) return;
         rebuilder_.reset();
-        codes_ = std::make_unique<EssCodes>(ess_codes(*grid_, entries, *exec_));
+        codes_ = std::make_unique<EssCodes>(grid_ != nullptr ? ess_codes(*grid_, entries, *exec_, border_)
+                                                             : ess_codes(*words_, entries, *exec_));
         codes_ms_ = codes_->ms;
         rebuilder_.emplace(codes_->volume, cfg_, *exec_);
     }
-    const volume::DensityGrid* grid_;
+    const volume::DensityGrid* grid_ = nullptr;
+    const GridWords* words_ = nullptr;
     X* exec_;
     kdtree::Config cfg_;
+    GridBorder border_;
     std::unique_ptr<EssCodes> codes_;
     std::optional<kdtree::Rebuilder<X>> rebuilder_;
     double codes_ms_ = 0.0;

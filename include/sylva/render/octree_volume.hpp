@@ -8,7 +8,9 @@
 //   Frame f = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);   // p as for the marcher
 //
 // With the full-resolution cut (the default max_level) and the builder's default border the
-// image equals render_dvr_cpu's over the same grid bit for bit (same lattice, same dt).
+// image equals render_dvr_cpu's over the same grid bit for bit (same lattice, same dt) when the
+// grid clamps at its edges (GridWords::from(g, GridBorder::clamp()): the brick aprons outside the
+// volume repeat the edge voxels; a constant border, the marcher's default, is not supported here yet).
 //
 //   std::vector<std::uint32_t> w = words;                        // a view-dependent cut:
 //   octree::Cut c = select_octree_cut(w, p, {.lod_pixels = 1.0f, .max_nodes = 1u << 16}, false);

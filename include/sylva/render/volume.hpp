@@ -28,6 +28,7 @@
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
 #include "sylva/render/camera.hpp"
+#include "sylva/render/grid_view.hpp"
 #include "sylva/render/particles.hpp"
 #include "sylva/render/rays.hpp"
 #include "sylva/shared/bih_dvr.h"
@@ -86,31 +87,70 @@ inline float default_dt(const Aabb& box) {
     return std::max(e.x, std::max(e.y, e.z)) / 1024.0f;
 }
 
-/// A density grid as the marcher reads it: the float bits of each normalised density.
+/// A grid as the samplers read it (sylva/shared/grid_sample.h): words in the format of
+/// `sampling` (float bits of normalised densities, or uint8 / uint16 raw values packed four /
+/// two a word; sylva/render/grid_view.hpp) and the border mode (default constant 0).
 struct GridWords {
     volume::Dims dims{0};
     vec3 spacing{1.0f};
     std::vector<std::uint32_t> words;
+    GridSampling sampling{};
 
     /// Converts and checks a grid: dimensions >= 1, fewer than 2^32 voxels, as many values as
     /// voxels, all finite, spacing finite and > 0. Throws sylva::Error naming the problem.
-    static GridWords from(const volume::DensityGrid& g) {
-        std::size_t n = volume::voxel_count(g.dims, 4);
-        if (n > 0xFFFFFFFFu) throw Error("render: a grid of " + std::to_string(n) + " voxels exceeds 2^32 - 1");
+    static GridWords from(const volume::DensityGrid& g, GridBorder border = {}) {
+        std::size_t n = checked_count(g.dims, g.spacing);
         if (g.values.size() != n)
             throw Error("render: the grid holds " + std::to_string(g.values.size()) + " values for " +
                         std::to_string(n) + " voxels");
-        if (!all_finite(g.spacing) || !(g.spacing.x > 0.0f && g.spacing.y > 0.0f && g.spacing.z > 0.0f))
-            throw Error("render: grid spacing must be finite and > 0");
-        GridWords out{g.dims, g.spacing, std::vector<std::uint32_t>(n)};
+        border.check();
+        GridWords out{g.dims, g.spacing, std::vector<std::uint32_t>(n), GridSampling{}};
+        out.sampling.border = border;
         for (std::size_t i = 0; i < n; ++i) {
             if (!std::isfinite(g.values[i])) throw Error("render: grid value " + std::to_string(i) + " is not finite");
             out.words[i] = std::bit_cast<std::uint32_t>(g.values[i]);
         }
         return out;
     }
+    /// A volume in its own voxel type, no float copy: uint8 / uint16 voxels packed into words
+    /// (1 / 2 bytes a voxel), normalised on the fly with the volume's value range
+    /// [range_lo, range_hi] exactly as volume::normalize does; a float32 volume is normalised
+    /// (volume::normalize, 4 bytes a voxel). Throws sylva::Error for bad sizes or an empty range.
+    static GridWords native(const volume::Volume& v, GridBorder border = {}) {
+        if (v.type == volume::ScalarType::F32) return from(volume::normalize(v), border);
+        checked_count(v.dims, v.spacing);
+        GridWords out{v.dims, v.spacing, pack_voxel_words(v), GridSampling{}};
+        out.sampling.format = native_format(v.type);
+        out.sampling.value_lo = v.range_lo;
+        out.sampling.value_span = v.range_hi - v.range_lo;
+        out.sampling.border = border;
+        out.sampling.check();
+        return out;
+    }
     /// World box [0, dims * spacing].
     [[nodiscard]] Aabb world_box() const { return Aabb{vec3(0.0f), vec3(dims) * spacing}; }
+    /// Voxel count.
+    [[nodiscard]] std::size_t voxels() const { return volume::voxel_count(dims); }
+    /// Words the grid needs in its format.
+    [[nodiscard]] std::size_t expected_words() const { return grid_word_count(sampling.format, voxels()); }
+    /// Bytes of voxel data: voxels x 1 (uint8), 2 (uint16) or 4 (float32).
+    [[nodiscard]] std::size_t grid_bytes() const { return voxels() * grid_voxel_bytes(sampling.format); }
+    /// The shared sampler's descriptor.
+    [[nodiscard]] shared::SylvaGridDesc desc() const { return sampling.desc(dims, spacing); }
+    /// Normalised density of voxel i (i < voxels()), as the samplers read it.
+    [[nodiscard]] float density(std::size_t i) const {
+        return shared::sylva_grid_word_density(shared::Words{words.data(), words.size()}, desc(),
+                                               static_cast<std::uint32_t>(i));
+    }
+
+private:
+    static std::size_t checked_count(volume::Dims dims, vec3 spacing) {
+        std::size_t n = volume::voxel_count(dims, 4);
+        if (n > 0xFFFFFFFFu) throw Error("render: a grid of " + std::to_string(n) + " voxels exceeds 2^32 - 1");
+        if (!all_finite(spacing) || !(spacing.x > 0.0f && spacing.y > 0.0f && spacing.z > 0.0f))
+            throw Error("render: grid spacing must be finite and > 0");
+        return n;
+    }
 };
 
 /// An encoded voxel-cuboid BIH (payload SYLVA_PAYLOAD_VOXEL) to render.
@@ -237,9 +277,12 @@ inline std::vector<std::uint32_t> pack_bih_dvr(const shared::SylvaBihHeader& h, 
 
 /// Packs and checks the parameters of the marcher over `grid`.
 inline std::vector<std::uint32_t> dvr_params(const GridWords& grid, const VolumeRenderParams& p) {
-    if (grid.words.size() != volume::voxel_count(grid.dims))
+    grid.sampling.check();
+    if (grid.words.size() != grid.expected_words())
         throw Error("render: GridWords holds " + std::to_string(grid.words.size()) + " words for its dimensions");
-    return detail::pack_dvr(grid.dims, grid.spacing, p);
+    std::vector<std::uint32_t> w = detail::pack_dvr(grid.dims, grid.spacing, p);
+    grid.sampling.pack(w);
+    return w;
 }
 
 /// Packs and checks the parameters of BIH-DVR over `bih`: a valid voxel BIH header, a BIH

@@ -43,8 +43,11 @@ public:
         : words_(split_words(ctx, checked(grid), 4, shift)),
           parts_(used_parts(grid.words.size(), words_.shift)),
           dims_(grid.dims),
-          spacing_(grid.spacing) {}
+          spacing_(grid.spacing),
+          sampling_(grid.sampling) {}
     [[nodiscard]] volume::Dims dims() const { return dims_; }
+    /// Voxel format, value range and border of the grid (sylva/render/grid_view.hpp).
+    [[nodiscard]] const GridSampling& sampling() const { return sampling_; }
     [[nodiscard]] vec3 spacing() const { return spacing_; }
     /// Specialization constants of dvr.comp: split shift, parts holding data.
     [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {words_.shift, parts_}; }
@@ -66,6 +69,7 @@ private:
     std::uint32_t parts_;
     volume::Dims dims_;
     vec3 spacing_;
+    GridSampling sampling_;
     std::optional<Kernel> kernel_;
 };
 
