@@ -395,8 +395,9 @@ template <Executor X>
 Frame render_kd_dvr_cpu(const GridWords& grid, std::span<const std::uint32_t> kd, const VolumeRenderParams& p,
                         X& exec) {
     std::vector<std::uint32_t> words = kd_dvr_params(grid, kd, p);
+    TfWords tfw = tf_words(p);
     shared::Words pw{words.data(), words.size()}, kw{kd.data(), kd.size()}, gw{grid.words.data(), grid.words.size()},
-        tw{p.tf.data(), p.tf.size()};
+        tw = tfw.view();
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     return detail::render_pixels(p, exec, [&](vec3 o, vec3 d, std::uint32_t& steps) {
         std::uint32_t status;

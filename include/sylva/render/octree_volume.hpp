@@ -59,6 +59,19 @@ inline std::vector<std::uint32_t> tf_opacity_prefix(std::span<const std::uint32_
     return sum;
 }
 
+/// tf_opacity_prefix of p's transfer function: its RGBA8 table's, its float table's (alpha > 0),
+/// or for a hook, whose zeros the octree cannot know, an always-visible TF of tf_entries(p) = 2
+/// entries (no node or octant is skipped by the TF then; give a table to skip).
+inline std::vector<std::uint32_t> tf_opacity_prefix(const VolumeRenderParams& p) {
+    if (p.tf_kind == TfKind::Rgba8) return tf_opacity_prefix(p.tf);
+    std::vector<std::uint32_t> sum(tf_entries(p) + 1, 0u);
+    for (std::size_t i = 0; i + 1 < sum.size(); ++i) {
+        bool visible = p.tf_kind == TfKind::Hook || p.tf_rgba32f[i * 4 + 3] > 0.0f;
+        sum[i + 1] = sum[i] + (visible ? 1u : 0u);
+    }
+    return sum;
+}
+
 namespace detail {
 
 /// The octree's header, checked; throws sylva::Error naming the problem.
@@ -85,9 +98,10 @@ inline std::vector<std::uint32_t> octree_dvr_params(const OctreeView& o, const V
 template <Executor X>
 Frame render_octree_dvr_cpu(const OctreeView& o, const VolumeRenderParams& p, X& exec) {
     std::vector<std::uint32_t> params = octree_dvr_params(o, p);
-    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
+    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p);
+    TfWords tfw = tf_words(p);
     shared::Words pw{params.data(), params.size()}, ow{o.words.data(), o.words.size()},
-        bw{o.bricks.data(), o.bricks.size()}, tw{p.tf.data(), p.tf.size()}, sw{tfsum.data(), tfsum.size()};
+        bw{o.bricks.data(), o.bricks.size()}, tw = tfw.view(), sw{tfsum.data(), tfsum.size()};
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     shared::SylvaOctHeader h = detail::octree_header(o);
     shared::SeenWords seen{o.seen.data(), o.seen.size()};
@@ -111,8 +125,9 @@ Frame render_octree_dvr_cpu(const OctreeView& o, const VolumeRenderParams& p, X&
 template <Executor X>
 Frame render_octree_iso_cpu(const OctreeView& o, const VolumeRenderParams& p, X& exec) {
     std::vector<std::uint32_t> params = octree_dvr_params(o, p);
+    TfWords tfw = tf_words(p);
     shared::Words pw{params.data(), params.size()}, ow{o.words.data(), o.words.size()},
-        bw{o.bricks.data(), o.bricks.size()}, tw{p.tf.data(), p.tf.size()};
+        bw{o.bricks.data(), o.bricks.size()}, tw = tfw.view();
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     shared::SylvaOctHeader h = detail::octree_header(o);
     shared::SeenWords seen{o.seen.data(), o.seen.size()};
@@ -135,7 +150,7 @@ struct OctreeTerminal {
     float iso_value = 0.0f;
     bool iso = false;
     OctreeTerminal(std::span<const std::uint32_t> w, const VolumeRenderParams& p, bool iso_mode)
-        : words(w), tfsum(tf_opacity_prefix(p.tf)), entries(static_cast<std::uint32_t>(p.tf.size())), iso_value(p.iso),
+        : words(w), tfsum(tf_opacity_prefix(p)), entries(tf_entries(p)), iso_value(p.iso),
           iso(iso_mode) {}
     bool operator()(std::uint32_t n) const {
         vec2 r = shared::sylva_oct_range(shared::Words{words.data(), words.size()}, n);

@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -45,6 +46,19 @@ enum class VolumeMode : std::uint32_t {
     BihIso = SYLVA_VOLUME_MODE_BIH_ISO,        ///< first point reaching an iso value (4.1, 4.3)
 };
 
+/// The kinds of transfer function (sylva/shared/tf.h).
+enum class TfKind : std::uint32_t {
+    Rgba8 = SYLVA_TF_KIND_RGBA8,      ///< VolumeRenderParams::tf, RGBA8 words, >= 2 entries
+    Rgba32f = SYLVA_TF_KIND_RGBA32F,  ///< VolumeRenderParams::tf_rgba32f, float RGBA, >= 1 entry
+    Hook = SYLVA_TF_KIND_HOOK,        ///< VolumeRenderParams::tf_hook (host) / sylva_tf_user (GLSL)
+};
+
+/// Opacity correction of a sample (sylva/shared/dvr_classify.h).
+enum class OpacityCorrection : std::uint32_t {
+    Power = SYLVA_OPACITY_POWER,  ///< 1 - (1 - alpha)^(l / unit) (Kinkelin 4.3): images independent of dt
+    None = SYLVA_OPACITY_NONE,    ///< alpha as each sample's opacity, whatever dt
+};
+
 /// Everything a volume image depends on besides the data.
 struct VolumeRenderParams {
     CameraFrame camera{};
@@ -54,8 +68,21 @@ struct VolumeRenderParams {
     std::uint32_t width = 256;
     std::uint32_t height = 256;
     /// Transfer function: straight RGBA8 words (R bits 0-7 ... A bits 24-31), entry i at
-    /// density i / (N - 1), linear in between (sylva/shared/tf.h); N >= 2.
+    /// density i / (N - 1), linear in between (sylva/shared/tf.h); N >= 2. Read for
+    /// TfKind::Rgba8 (the default).
     std::vector<std::uint32_t> tf;
+    /// Which transfer function classifies the samples (parameter word 36, sylva/shared/tf.h).
+    TfKind tf_kind = TfKind::Rgba8;
+    /// TfKind::Rgba32f: straight float RGBA, 4 floats an entry, any number of entries >= 1
+    /// (entry i at density i / (N - 1), linear in between; one entry is a constant TF).
+    std::vector<float> tf_rgba32f;
+    /// TfKind::Hook on the host: straight RGBA of a normalised density, called from several
+    /// threads at once. On Vulkan the hook is a GLSL function of your shader (sylva_tf_user,
+    /// sylva/shared/tf.h; vk::render_dvr_vulkan with your kernel).
+    std::function<vec4(float)> tf_hook;
+    /// Opacity correction (parameter word 37, sylva/shared/dvr_classify.h): Power (default)
+    /// 1 - (1 - alpha)^(l / unit) per segment of length l; None: alpha per sample as it is.
+    OpacityCorrection opacity = OpacityCorrection::Power;
     /// Lattice spacing in world units; 0 = the longest world extent / 1024 (Kinkelin 6.2:
     /// "1,024 steps along the longest axis of the volume").
     float dt = 0.0f;
@@ -174,13 +201,35 @@ inline void check_finite(float v, const char* what) {
     if (!std::isfinite(v)) throw Error(std::string("render: ") + what + " is not finite");
 }
 
+/// Throws sylva::Error for a transfer function the kind cannot use: an RGBA8 table of fewer than
+/// 2 or more than 2^24 entries, a float table not whole entries, empty, over 2^24 entries or
+/// not finite, a hook kind without a callable, an unknown kind or opacity correction.
+inline void check_tf(const VolumeRenderParams& p) {
+    if (p.tf_kind == TfKind::Rgba8) {
+        if (p.tf.size() < 2 || p.tf.size() > (std::size_t{1} << 24))
+            throw Error("render: the transfer function needs 2 to 2^24 entries, got " + std::to_string(p.tf.size()));
+    } else if (p.tf_kind == TfKind::Rgba32f) {
+        const std::vector<float>& t = p.tf_rgba32f;
+        if (t.empty() || t.size() % 4 != 0 || t.size() / 4 > (std::size_t{1} << 24))
+            throw Error("render: a float RGBA transfer function needs 1 to 2^24 whole entries of 4 floats, got " +
+                        std::to_string(t.size()) + " floats");
+        for (std::size_t i = 0; i < t.size(); ++i)
+            if (!std::isfinite(t[i])) throw Error("render: float TF entry " + std::to_string(i / 4) + " is not finite");
+    } else if (p.tf_kind == TfKind::Hook) {
+        if (!p.tf_hook) throw Error("render: TfKind::Hook needs VolumeRenderParams::tf_hook on the host");
+    } else {
+        throw Error("render: unknown transfer function kind " + std::to_string(static_cast<std::uint32_t>(p.tf_kind)));
+    }
+    if (p.opacity != OpacityCorrection::Power && p.opacity != OpacityCorrection::None)
+        throw Error("render: unknown opacity correction " + std::to_string(static_cast<std::uint32_t>(p.opacity)));
+}
+
 /// Throws sylva::Error for parameters no integrator can use.
 inline void check_volume_params(const VolumeRenderParams& p) {
     if (p.width == 0 || p.height == 0 || std::uint64_t{p.width} * p.height > (std::uint64_t{1} << 28))
         throw Error("render: image size " + std::to_string(p.width) + "x" + std::to_string(p.height) +
                     " is empty or over 2^28 pixels");
-    if (p.tf.size() < 2 || p.tf.size() > (std::size_t{1} << 24))
-        throw Error("render: the transfer function needs 2 to 2^24 entries, got " + std::to_string(p.tf.size()));
+    check_tf(p);
     for (const vec3& v : {p.camera.eye, p.camera.w, p.camera.u, p.camera.v, p.light})
         if (!all_finite(v)) throw Error("render: the camera or light holds a non-finite number");
     for (float f : {p.dt, p.unit, p.alpha_stop, p.iso, p.ambient, p.diffuse, p.specular, p.shininess})
@@ -209,6 +258,37 @@ inline float resolve_dt(const VolumeRenderParams& p, const Aabb& box) {
 
 }  // namespace detail
 
+/// Entries of p's table (parameter word 27): RGBA8 words, float entries (4 floats each), or 2
+/// for the hook (no table; the octree's TF emptiness test then sees an always-visible TF).
+inline std::uint32_t tf_entries(const VolumeRenderParams& p) {
+    if (p.tf_kind == TfKind::Rgba32f) return static_cast<std::uint32_t>(p.tf_rgba32f.size() / 4);
+    if (p.tf_kind == TfKind::Hook) return 2u;
+    return static_cast<std::uint32_t>(p.tf.size());
+}
+
+/// The transfer function as the shared code reads it (buffer `tf`, sylva/shared/tf.h): the
+/// table's words (RGBA8 words, or the float table's bits) and, for the hook, the callable.
+struct TfWords {
+    std::vector<std::uint32_t> words;
+    const std::function<vec4(float)>* hook = nullptr;
+    [[nodiscard]] shared::Words view() const { return shared::Words{words.data(), words.size(), hook}; }
+};
+
+/// p's TF as words (a copy of the table) for the host integrators and the device buffer.
+inline TfWords tf_words(const VolumeRenderParams& p) {
+    TfWords t;
+    if (p.tf_kind == TfKind::Rgba32f) {
+        t.words.resize(p.tf_rgba32f.size());
+        for (std::size_t i = 0; i < t.words.size(); ++i) t.words[i] = std::bit_cast<std::uint32_t>(p.tf_rgba32f[i]);
+    } else if (p.tf_kind == TfKind::Hook) {
+        t.words.assign(1, 0u);
+        t.hook = &p.tf_hook;
+    } else {
+        t.words = p.tf;
+    }
+    return t;
+}
+
 /// The parameter block of sylva/shared/dvr_common.h for `p` with the resolved dt, the grid
 /// dims (marcher; 0 for BIH), the voxel size and the BIH word count (0 for the marcher).
 inline std::vector<std::uint32_t> pack_volume_params(const VolumeRenderParams& p, volume::Dims dims, vec3 voxel_size,
@@ -224,13 +304,15 @@ inline std::vector<std::uint32_t> pack_volume_params(const VolumeRenderParams& p
     const float f[11] = {dt, p.unit, p.alpha_stop, p.iso, light.x, light.y, light.z,
                          p.ambient, p.diffuse, p.specular, p.shininess};
     for (int i = 0; i < 11; ++i) w[16 + i] = detail::fbits(f[i]);
-    w[27] = static_cast<std::uint32_t>(p.tf.size());
+    w[27] = tf_entries(p);
     for (int a = 0; a < 3; ++a) {
         w[28 + a] = dims[a];
         w[31 + a] = detail::fbits(voxel_size[a]);
     }
     w[34] = word_count;
     w[35] = static_cast<std::uint32_t>(p.rays.source);
+    w[36] = static_cast<std::uint32_t>(p.tf_kind);
+    w[37] = static_cast<std::uint32_t>(p.opacity);
     return w;
 }
 
@@ -319,8 +401,8 @@ Frame render_pixels(const VolumeRenderParams& p, X& exec, RayFn&& ray) {
 template <Executor X>
 Frame render_dvr_cpu(const GridWords& grid, const VolumeRenderParams& p, X& exec) {
     std::vector<std::uint32_t> words = dvr_params(grid, p);
-    shared::Words pw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()},
-        tw{p.tf.data(), p.tf.size()};
+    TfWords tfw = tf_words(p);
+    shared::Words pw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()}, tw = tfw.view();
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     return detail::render_pixels(p, exec, [&](vec3 o, vec3 d, std::uint32_t& steps) {
         return shared::sylva_dvr_march(gw, tw, sp, o, d, 0.0f, shared::sylva_inf(), steps);
@@ -338,8 +420,9 @@ Frame render_dvr_cpu(const volume::DensityGrid& grid, const VolumeRenderParams& 
 template <Executor X>
 Frame render_bih_dvr_cpu(const VoxelBihView& bih, const VolumeRenderParams& p, X& exec) {
     std::vector<std::uint32_t> words = bih_dvr_params(bih, p);
+    TfWords tfw = tf_words(p);
     shared::Words pw{words.data(), words.size()}, bw{bih.words.data(), bih.words.size()},
-        rw{bih.ranges.data(), bih.ranges.size()}, tw{p.tf.data(), p.tf.size()};
+        rw{bih.ranges.data(), bih.ranges.size()}, tw = tfw.view();
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
     return detail::render_pixels(p, exec, [&](vec3 o, vec3 d, std::uint32_t& steps) {
         std::uint32_t status;

@@ -31,6 +31,7 @@
 #define SYLVA_SHARED_BIH_DVR_H
 
 #include "sylva/shared/bih_iter.h"
+#include "sylva/shared/dvr_classify.h"
 #include "sylva/shared/dvr_common.h"
 #include "sylva/shared/tf.h"
 #include "sylva/shared/voxel.h"
@@ -86,8 +87,8 @@ SYLVA_FN float sylva_bih_dvr_density(SylvaVoxel v, vec3 x, vec3 c, vec3 voxel_si
 /// Classifies, shades and composites one sample of a leaf covering `units` unit lengths.
 SYLVA_FN void sylva_bih_dvr_sample(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(tf), SylvaDvrParams p, float density,
                                    vec3 gradient, vec3 d, float units) {
-    vec4 c = sylva_tf_lookup(SYLVA_PASS_BUF(tf), p.tf_entries, density);
-    float a = sylva_dvr_correct(c.w, units);
+    vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, density);
+    float a = sylva_dvr_opacity(p, c.w, units);
     if (a <= 0.0f) return;
     vec3 g = vec3(gradient.x / p.spacing.x, gradient.y / p.spacing.y, gradient.z / p.spacing.z);
     sylva_dvr_blend(acc, sylva_dvr_shade(p, vec3(c.x, c.y, c.z), g, d), a);
@@ -217,7 +218,7 @@ SYLVA_FN vec4 sylva_bih_iso(SYLVA_BUF(words), SYLVA_BUF(ranges), SYLVA_BUF(tf), 
     steps = it.steps;
     status = it.status;
     if (!(t_hit < sylva_inf()) || status == SYLVA_ITER_ERROR) return vec4(0.0f);
-    vec4 c = sylva_tf_lookup(SYLVA_PASS_BUF(tf), p.tf_entries, p.iso);
+    vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, p.iso);
     vec3 gw = vec3(g.x / p.spacing.x, g.y / p.spacing.y, g.z / p.spacing.z);
     vec3 rgb = sylva_dvr_shade(p, vec3(c.x, c.y, c.z), gw, d);
     return vec4(rgb.x, rgb.y, rgb.z, 1.0f);

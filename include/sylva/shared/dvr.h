@@ -12,6 +12,7 @@
 #ifndef SYLVA_SHARED_DVR_H
 #define SYLVA_SHARED_DVR_H
 
+#include "sylva/shared/dvr_classify.h"
 #include "sylva/shared/dvr_common.h"
 #include "sylva/shared/grid_sample.h"
 #include "sylva/shared/tf.h"
@@ -42,15 +43,29 @@ SYLVA_FN vec3 sylva_dvr_grid_hi(SylvaDvrParams p) {
     return vec3(float(p.dims.x) * p.spacing.x, float(p.dims.y) * p.spacing.y, float(p.dims.z) * p.spacing.z);
 }
 
+/// The grid the marcher samples: dims, spacing, border mode, voxel format and value range of
+/// the parameter block (words 28-33, 38-42; sylva/shared/grid_sample.h).
+SYLVA_FN SylvaGridDesc sylva_dvr_grid(SylvaDvrParams p) {
+    SylvaGridDesc g;
+    g.dims = p.dims;
+    g.spacing = p.spacing;
+    g.border = p.border;
+    g.border_value = p.border_value;
+    g.format = p.grid_format;
+    g.value_lo = p.value_lo;
+    g.value_span = p.value_span;
+    return g;
+}
+
 /// Classifies, shades and composites one marcher sample of density `density` at x.
 SYLVA_FN void sylva_dvr_march_sample(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(grid), SYLVA_BUF(tf), SylvaDvrParams p,
                                      vec3 x, float density, vec3 d, float units) {
-    vec4 c = sylva_tf_lookup(SYLVA_PASS_BUF(tf), p.tf_entries, density);
-    float a = sylva_dvr_correct(c.w, units);
+    vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, density);
+    float a = sylva_dvr_opacity(p, c.w, units);
     if (a <= 0.0f) return;
     vec3 rgb = vec3(c.x, c.y, c.z);
     if ((p.flags & SYLVA_DVR_FLAG_SHADING) != 0u) {
-        vec3 g = sylva_grid_gradient(SYLVA_PASS_BUF(grid), p.dims, p.spacing, x);
+        vec3 g = sylva_grid_sample_gradient(SYLVA_PASS_BUF(grid), sylva_dvr_grid(p), x);
         rgb = sylva_dvr_shade(p, rgb, vec3(g.x / p.spacing.x, g.y / p.spacing.y, g.z / p.spacing.z), d);
     }
     sylva_dvr_blend(acc, rgb, a);
@@ -74,7 +89,7 @@ SYLVA_FN vec4 sylva_dvr_march(SYLVA_BUF(grid), SYLVA_BUF(tf), SylvaDvrParams p, 
         if (!(t < span.y) || acc.alpha >= p.alpha_stop) break;
         steps = steps + 1u;
         vec3 x = sylva_dvr_at(origin, d, t);
-        float density = sylva_grid_density(SYLVA_PASS_BUF(grid), p.dims, p.spacing, x);
+        float density = sylva_grid_sample(SYLVA_PASS_BUF(grid), sylva_dvr_grid(p), x);
         if (density > 0.0f) sylva_dvr_march_sample(acc, SYLVA_PASS_BUF(grid), SYLVA_PASS_BUF(tf), p, x, density, d, units);
     }
     return sylva_dvr_result(acc);

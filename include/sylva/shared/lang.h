@@ -42,6 +42,7 @@
 #endif
 #include <cstdint>
 #include <cstddef>
+#include <functional>
 #include <glm/glm.hpp>
 #include <glm/gtc/type_precision.hpp>
 
@@ -54,6 +55,9 @@ using uint = std::uint32_t;
 struct Words {
     const std::uint32_t* data = nullptr;
     std::size_t size = 0;
+    /// Host only: the transfer-function hook (tf.h, SYLVA_TF_KIND_HOOK) a TF view carries, a
+    /// callable density -> straight RGBA; null elsewhere. GLSL's hook is the shader's function.
+    const std::function<glm::vec4(float)>* hook = nullptr;
     [[nodiscard]] std::uint32_t operator[](std::size_t i) const noexcept { return i < size ? data[i] : 0u; }
 };
 }  // namespace sylva::shared

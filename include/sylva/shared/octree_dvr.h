@@ -168,8 +168,8 @@ SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bric
         vec3 x = sylva_dvr_at(origin, d, t);
         float density = sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, x);
         if (density > 0.0f) {
-            vec4 c = sylva_tf_lookup(SYLVA_PASS_BUF(tf), p.tf_entries, density);
-            float a = sylva_dvr_correct(c.w, units);
+            vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, density);
+            float a = sylva_dvr_opacity(p, c.w, units);
             if (a > 0.0f) {
                 vec3 rgb = vec3(c.x, c.y, c.z);
                 if ((p.flags & SYLVA_DVR_FLAG_SHADING) != 0u) {

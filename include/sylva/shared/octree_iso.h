@@ -67,7 +67,7 @@ SYLVA_FN bool sylva_oct_iso_segment(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 ori
 /// The shaded, opaque colour of a hit at t from brick b.
 SYLVA_FN vec4 sylva_oct_iso_shade(SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SylvaOctBrick b, vec3 origin, vec3 d,
                                   float t) {
-    vec4 c = sylva_tf_lookup(SYLVA_PASS_BUF(tf), p.tf_entries, p.iso);
+    vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, p.iso);
     vec3 x = sylva_dvr_at(origin, d, t);
     vec3 g = sylva_oct_brick_gradient(SYLVA_PASS_BUF(bricks), b, x);
     SylvaDvrParams lit = p;

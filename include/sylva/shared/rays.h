@@ -10,9 +10,9 @@
 // In GLSL the shader defines `uint sylva_load_rays(uint i)` before including, or
 // `#define SYLVA_NO_RAYS` when it binds no ray buffer (lang.h then supplies a loader returning 0;
 // a SYLVA_RAYS_BUFFER block then gives zero rays, which draw nothing). A shader may instead
-// generate rays itself: `#define SYLVA_RAYS_USER` and define
-//   SylvaRay sylva_rays_user(uint x, uint y, uint width, uint height);
-// before including; SYLVA_RAYS_BUFFER then calls it instead of reading `rays`.
+// generate rays itself: `#define SYLVA_RAYS_USER` before including and define
+//   SylvaRay sylva_rays_user(uint x, uint y, uint width, uint height) { ... }
+// anywhere (declared here); SYLVA_RAYS_BUFFER then calls it instead of reading `rays`.
 #ifndef SYLVA_SHARED_RAYS_H
 #define SYLVA_SHARED_RAYS_H
 
@@ -20,6 +20,10 @@
 #include "sylva/shared/dvr_common.h"
 
 SYLVA_BEGIN_NAMESPACE
+
+#if !defined(__cplusplus) && defined(SYLVA_RAYS_USER)
+SylvaRay sylva_rays_user(uint x, uint y, uint width, uint height);
+#endif
 
 /// Ray of pixel (x, y) from a ray buffer (see the top); words past the buffer read 0.
 SYLVA_FN SylvaRay sylva_rays_load(SYLVA_BUF(rays), uint x, uint y, uint width) {

@@ -80,8 +80,8 @@ inline Frame render_kd_dvr_vulkan(Context& ctx, DeviceGrid& grid, DeviceKdTree& 
     if (kd.dims() != uvec3(grid.dims()) || kd.spacing() != grid.spacing() || kd.origin() != vec3(0.0f))
         throw Error("vk::render_kd_dvr_vulkan: the kd-tree's grid (dims, spacing or origin 0) is not the volume's");
     params[34] = kd.word_count();
-    Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
-    tf.upload(p.tf);
+    Buffer tf = detail::tf_binding(ctx, p);
+    Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     pb.upload(params);
     Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
     std::array<Buffer*, 12> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), kd.part(0), kd.part(1),

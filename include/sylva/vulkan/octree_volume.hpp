@@ -163,10 +163,9 @@ namespace detail {
 inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p, std::uint32_t mode,
                                   std::span<std::uint32_t> seen, std::span<const std::uint32_t> octmask) {
     std::vector<std::uint32_t> params = sylva::detail::pack_dvr(oct.header().dims, oct.header().spacing, p);
-    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p.tf);
-    Buffer tf(ctx, p.tf.size() * 4), sum(ctx, tfsum.size() * 4), pb(ctx, params.size() * 4),
-        out(ctx, std::size_t{p.width} * p.height * 5 * 4);
-    tf.upload(p.tf);
+    std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p);
+    Buffer tf = detail::tf_binding(ctx, p);
+    Buffer sum(ctx, tfsum.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     sum.upload(tfsum);
     pb.upload(params);
     Buffer& fb = seen.empty() ? oct.no_feedback(ctx) : oct.feedback(ctx, seen.size());

@@ -23,6 +23,7 @@
 #include "sylva/spirv/dvr.h"
 #include "sylva/vulkan/bih.hpp"
 #include "sylva/vulkan/rays.hpp"
+#include "sylva/vulkan/tf.hpp"
 #include "sylva/vulkan/runner.hpp"
 #include "sylva/vulkan/split_words.hpp"
 
@@ -56,6 +57,11 @@ public:
     Kernel& kernel(Context& ctx) {
         if (!kernel_) kernel_.emplace(ctx, spirv::dvr, 8, 0, constants());
         return *kernel_;
+    }
+    /// A kernel of your SPIR-V built from sylva/shared/dvr_main.glsl (the marcher's bindings and
+    /// specialization constants), for render_dvr_vulkan(ctx, grid, p, &kernel).
+    [[nodiscard]] Kernel user_kernel(Context& ctx, std::span<const std::uint32_t> spirv) const {
+        return Kernel(ctx, spirv, 8, 0, constants());
     }
     [[nodiscard]] Buffer* part(std::size_t i) { return &words_.parts[i]; }
 
@@ -140,21 +146,23 @@ inline Frame run_image_kernel(Context& ctx, Kernel& kernel, std::span<Buffer* co
 }  // namespace detail
 
 /// Renders `grid` with the reference marcher on the device; same output as render_dvr_cpu.
-inline Frame render_dvr_vulkan(Context& ctx, DeviceGrid& grid, const VolumeRenderParams& p) {
+/// With `kernel`, your build of sylva/shared/dvr_main.glsl (e.g. with a TF hook, sylva/shared/
+/// tf.h; made with grid.user_kernel) runs instead of the library's dvr.comp.
+inline Frame render_dvr_vulkan(Context& ctx, DeviceGrid& grid, const VolumeRenderParams& p, Kernel* kernel = nullptr) {
     std::vector<std::uint32_t> params = sylva::detail::pack_dvr(grid.dims(), grid.spacing(), p);
-    Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
-    tf.upload(p.tf);
+    Buffer tf = detail::tf_binding(ctx, p, kernel != nullptr);
+    Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     pb.upload(params);
     Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
     std::array<Buffer*, 8> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), &tf, &pb, &out, &rays};
-    return detail::run_image_kernel(ctx, grid.kernel(ctx), bind, out, p.width, p.height);
+    return detail::run_image_kernel(ctx, kernel ? *kernel : grid.kernel(ctx), bind, out, p.width, p.height);
 }
 
 /// Renders a voxel BIH in mode p.mode on the device; same output as render_bih_dvr_cpu.
 inline Frame render_bih_dvr_vulkan(Context& ctx, DeviceVoxelBih& bih, const VolumeRenderParams& p) {
     std::vector<std::uint32_t> params = bih.params(p);
-    Buffer tf(ctx, p.tf.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
-    tf.upload(p.tf);
+    Buffer tf = detail::tf_binding(ctx, p);
+    Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     pb.upload(params);
     Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
     std::array<Buffer*, 12> bind{bih.part(0),       bih.part(1),       bih.part(2),       bih.part(3),

@@ -1,0 +1,56 @@
+// sylva/shared/dvr_main.glsl -- the reference DVR marcher's compute kernel (sylva/shared/dvr.h)
+// over a density grid: shaders/dvr.comp is this file alone; your shader may define a transfer-
+// function hook (or a ray generator) first and include it, then run it with
+// vk::DeviceGrid::user_kernel and vk::render_dvr_vulkan(ctx, grid, p, &kernel):
+//
+//   #version 460
+//   #extension GL_GOOGLE_include_directive : require
+//   #define SYLVA_TF_USER                 // tf.h declares vec4 sylva_tf_user(float d)
+//   #define SYLVA_NO_TF                   // no TF table is read (lang.h supplies the loader)
+//   #include "sylva/shared/dvr_main.glsl"
+//   vec4 sylva_tf_user(float d) { ... }   // or #include your shared-subset header defining it
+//
+// (tests/dvr/shaders/dvr_analytic_tf.comp does this with the shared-subset TF of
+// tests/dvr/shaders/analytic_tf.h, which the host test calls as its tf_hook.)
+//
+// Bindings: 0-3 the grid's words (SYLVA_SPLIT_WORDS: grids over 128 MiB); 4 the transfer
+// function table (sylva/shared/tf.h; not declared with SYLVA_NO_TF); 5 the parameter block
+// (SYLVA_DVR_PARAM_WORDS words, sylva/shared/dvr_common.h: camera, image size, dims, ...);
+// 6 output, 5 words per pixel: premultiplied R, G, B, alpha (float bits) and the number of
+// lattice samples visited; 7 the caller's rays, 6 words a pixel (sylva/shared/rays.h; read only
+// when the ray source word is SYLVA_RAYS_BUFFER, else a dummy is bound).
+// Specialization constants: 0 split shift of the grid, 1 parts holding data (1: fast loads).
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
+layout(constant_id = 1) const uint GRID_PARTS = 4u;
+
+#include "sylva/shared/split_words.glsl"
+SYLVA_SPLIT_WORDS_COUNTED(grid, 0, SPLIT_SHIFT, GRID_PARTS)
+layout(std430, binding = 5) readonly buffer Params { uint param_words[]; };
+layout(std430, binding = 6) writeonly buffer Pixels { uint pixels[]; };
+layout(std430, binding = 7) readonly buffer Rays { uint ray_words[]; };
+
+#ifndef SYLVA_NO_TF
+layout(std430, binding = 4) readonly buffer Tf { uint tf_words[]; };
+uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
+#endif
+uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
+
+#include "sylva/shared/rays.h"
+#include "sylva/shared/dvr.h"
+
+void main() {
+    SylvaDvrParams p = sylva_dvr_params(0u);
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= p.width || px.y >= p.height) return;
+    SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
+    uint steps;
+    vec4 c = sylva_dvr_march(0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps);
+    uint at = (px.y * p.width + px.x) * 5u;
+    pixels[at] = floatBitsToUint(c.x);
+    pixels[at + 1u] = floatBitsToUint(c.y);
+    pixels[at + 2u] = floatBitsToUint(c.z);
+    pixels[at + 3u] = floatBitsToUint(c.w);
+    pixels[at + 4u] = steps;
+}
