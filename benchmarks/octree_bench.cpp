@@ -187,7 +187,7 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     octree::apply_cut(lod, cut);
     octree::Cut cut_iso = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, true);
     octree::apply_cut(lod_iso, cut_iso);
-    GridWords gw = GridWords::from(g);
+    GridWords gw = GridWords::from(g, GridBorder::clamp());
     // Octant masks (octree/octants.hpp): the ranges once per octree, the masks once per TF.
     auto t_oct = std::chrono::steady_clock::now();
     octree::OctantRanges oct_ranges = octree::octant_ranges(full, t.bricks, pool);

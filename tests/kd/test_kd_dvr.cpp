@@ -38,8 +38,9 @@ kdtree::Tree build_tree(const volume::Occupancy& occ, Builder b, const kdtree::C
 const char* name(Builder b) { return b == Builder::Vidal ? "vidal" : "binned"; }
 
 /// The ESS occupancy of `g` under the TF words `tf` (segment codes, then the classifier).
-volume::Occupancy occupancy_for(const volume::DensityGrid& g, const std::vector<std::uint32_t>& tf, ThreadPool& pool) {
-    return ess_occupancy(ess_codes(g, static_cast<std::uint32_t>(tf.size()), pool), ess_classifier(tf), pool);
+volume::Occupancy occupancy_for(const volume::DensityGrid& g, const std::vector<std::uint32_t>& tf, ThreadPool& pool,
+                                const GridBorder& border = {}) {
+    return ess_occupancy(ess_codes(g, static_cast<std::uint32_t>(tf.size()), pool, border), ess_classifier(tf), pool);
 }
 
 /// Number of pixels whose RGBA differ in any bit.
@@ -89,9 +90,9 @@ VolumeRenderParams params(const volume::DensityGrid& g, vec3 from, std::uint32_t
 /// Renders `g` with the marcher and with ESS over a tree of every builder and depth and
 /// requires identical images; returns the ESS/marcher ratio of summed steps (deep, Vidal).
 double check_exact(const volume::DensityGrid& g, const VolumeRenderParams& p, ThreadPool& pool,
-                   double min_alpha_sum) {
-    GridWords gw = GridWords::from(g);
-    volume::Occupancy occ = occupancy_for(g, p.tf, pool);
+                   double min_alpha_sum, const GridBorder& border = {}) {
+    GridWords gw = GridWords::from(g, border);
+    volume::Occupancy occ = occupancy_for(g, p.tf, pool, border);
     Frame ref = render_dvr_cpu(gw, p, pool);
     INFO("occupied " << occ.count() << " of " << g.values.size() << " voxels");
     CHECK(summed_alpha(ref) > min_alpha_sum);  // the images are not trivially empty
@@ -157,11 +158,19 @@ TEST_CASE("ess dvr: the occupancy holds every voxel whose neighbourhood can be v
     volume::Dims dims{13, 9, 11};
     volume::DensityGrid g{dims, vec3(1.0f), std::vector<float>(volume::voxel_count(dims))};
     for (float& v : g.values) v = u(rng) < 0.97f ? u(rng) * 0.4f : u(rng) * 1.2f - 0.1f;  // also outside [0, 1]
+    // Borders: clamped (out-of-grid neighbours repeat the edge), constant 0 (the default) and a
+    // constant inside the visible band (every boundary voxel becomes visible).
+    for (GridBorder border : {GridBorder::clamp(), GridBorder{}, GridBorder::constant(0.44f)})
     for (std::size_t n : {std::size_t{256}, std::size_t{1024}}) {
         volume::TransferFunction band({{0.0f, vec4(0.0f)}, {0.41f, vec4(0.0f)}, {0.44f, vec4(0.8f, 0.6f, 0.2f, 0.5f)},
                                        {0.47f, vec4(0.0f)}, {1.0f, vec4(0.0f)}}, n);
         std::vector<std::uint32_t> tf = band.packed_rgba8();
-        EssCodes codes = ess_codes(g, static_cast<std::uint32_t>(n), pool);
+        EssCodes codes = ess_codes(g, static_cast<std::uint32_t>(n), pool, border);
+        auto neighbour = [&](std::int64_t x, std::int64_t y, std::int64_t z) -> double {
+            bool inside = x >= 0 && y >= 0 && z >= 0 && x < dims.x && y < dims.y && z < dims.z;
+            if (!inside && border.mode == BorderMode::Constant) return border.value;
+            return g.clamped(x, y, z);
+        };
         EssClassifier cls = ess_classifier(tf);
         const double last = double(n - 1);
         auto texel_alpha = [&](std::size_t i) { return double(tf[i] >> 24) / 255.0; };
@@ -189,13 +198,13 @@ TEST_CASE("ess dvr: the occupancy holds every voxel whose neighbourhood can be v
                     for (int dz = -1; dz <= 1; ++dz)
                         for (int dy = -1; dy <= 1; ++dy)
                             for (int dx = -1; dx <= 1; ++dx) {
-                                double v = g.clamped(std::int64_t{x} + dx, std::int64_t{y} + dy, std::int64_t{z} + dz);
+                                double v = neighbour(std::int64_t{x} + dx, std::int64_t{y} + dy, std::int64_t{z} + dz);
                                 lo = std::min(lo, v);
                                 hi = std::max(hi, v);
                             }
                     std::size_t i = volume::voxel_index(dims, x, y, z);
                     std::uint32_t code = ess_code(codes, i);
-                    INFO(n << " entries, voxel " << x << "," << y << "," << z << ": range " << lo << " .. " << hi
+                    INFO("border " << int(border.mode) << " " << border.value << ", " << n << " entries, voxel " << x << "," << y << "," << z << ": range " << lo << " .. " << hi
                            << ", code " << code);
                     REQUIRE((code & 255u) <= bucket(lo));
                     REQUIRE((code & 255u) >= bucket(lo - 1e-5));
@@ -305,6 +314,37 @@ TEST_CASE("ess dvr: a lattice sample on a face shared by two leaves is taken onc
         on_face_rays += (leaves >= 4 && (r.direction.x == 1.0f || r.direction.z == 1.0f)) ? 1 : 0;
     }
     CHECK(on_face_rays >= 24);  // axis rays crossing >= 3 shared faces at lattice points
+}
+
+TEST_CASE("ess dvr: images equal the marcher's under each border mode, data touching the grid's faces", "[kd_dvr]") {
+    ThreadPool pool(2);
+    // Density rising towards the faces (up to 0.9 on them) with an empty core: the boundary
+    // voxels decide what a border changes.
+    volume::Dims dims{24, 20, 18};
+    volume::DensityGrid g{dims, vec3(1.0f, 1.2f, 0.9f), std::vector<float>(volume::voxel_count(dims))};
+    for (std::uint32_t z = 0; z < dims.z; ++z)
+        for (std::uint32_t y = 0; y < dims.y; ++y)
+            for (std::uint32_t x = 0; x < dims.x; ++x) {
+                float e = std::min({float(x), float(dims.x - 1 - x), float(y), float(dims.y - 1 - y), float(z),
+                                    float(dims.z - 1 - z)});
+                g.values[volume::voxel_index(dims, x, y, z)] = e < 3.0f ? 0.9f - 0.2f * e : 0.0f;
+            }
+    std::vector<Frame> refs;
+    for (GridBorder border : {GridBorder::clamp(), GridBorder{}, GridBorder::constant(0.44f)}) {
+        for (vec3 from : {vec3(0.4f, 0.3f, 1.0f), vec3(1.0f, 0.0f, 0.0f), vec3(-0.3f, -0.9f, 0.2f)}) {
+            INFO("border " << int(border.mode) << " " << border.value << ", view from " << from.x << "," << from.y << ","
+                           << from.z);
+            // A band TF that sees 0.44 (the third border) and the faces' 0.5 .. 0.9 only in part.
+            VolumeRenderParams p = params(g, from, 48, band_tf(0.4f, 0.6f, 0.3f));
+            p.shading = from.x > 0.3f;  // the gradient reads the border too
+            check_exact(g, p, pool, 1.0, border);
+            if (from.z > 0.5f) refs.push_back(render_dvr_cpu(GridWords::from(g, border), p, pool));
+        }
+    }
+    // The borders change the image (the test above compares what differs).
+    REQUIRE(refs.size() == 3);
+    CHECK(bitwise_differing(refs[0], refs[1]) > 0);
+    CHECK(bitwise_differing(refs[1], refs[2]) > 0);
 }
 
 TEST_CASE("ess dvr: EssRebuilder (kdtree::Rebuilder over segment codes) gives the fresh trees after TF changes",

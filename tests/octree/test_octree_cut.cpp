@@ -204,7 +204,7 @@ TEST_CASE("octree cut: DVR through the full cut equals the marcher bit for bit; 
     p.tf.resize(256);
     for (std::uint32_t i = 0; i < 256; ++i) p.tf[i] = (i * 3 / 4) | (200u << 8) | ((255 - i) << 16) | ((i > 70 ? (i - 70) / 3 : 0) << 24);
     p.shading = true;
-    Frame ref = render_dvr_cpu(GridWords::from(g), p, pool);
+    Frame ref = render_dvr_cpu(GridWords::from(g, GridBorder::clamp()), p, pool);
     octree::CutView v = octree::cut_view(p.camera, p.width, p.height);
     auto none = [](std::uint32_t) { return false; };
     std::vector<double> err;

@@ -68,7 +68,7 @@ TEST_CASE("octree DVR: the full-resolution cut renders the marcher's image bit f
     for (const Case& c : cases) {
         octree::Tree t = octree::build(c.grid, pool, c.cfg);
         std::vector<std::uint32_t> words = octree::encode(t);
-        GridWords gw = GridWords::from(c.grid);
+        GridWords gw = GridWords::from(c.grid, GridBorder::clamp());
         for (bool shading : {false, true}) {
             VolumeRenderParams p = params(c.grid, 64, c.view, shading, 0.3f);
             Frame ref = render_dvr_cpu(gw, p, pool);
@@ -90,7 +90,7 @@ TEST_CASE("octree DVR: empty leaves are skipped (fewer samples), the image uncha
     octree::Tree t = octree::build(g, pool, {8, 2});
     std::vector<std::uint32_t> words = octree::encode(t);
     VolumeRenderParams p = params(g, 48, {0.3f, 0.5f, 1.0f}, true, 0.55f);
-    Frame ref = render_dvr_cpu(GridWords::from(g), p, pool);
+    Frame ref = render_dvr_cpu(GridWords::from(g, GridBorder::clamp()), p, pool);
     Frame oct = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);
     CHECK(differing(ref, oct) == 0);
     std::uint64_t ref_steps = 0, oct_steps = 0;

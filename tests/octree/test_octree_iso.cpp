@@ -60,7 +60,7 @@ vec4 grid_iso(shared::Words gw, shared::Words tw, const shared::SylvaDvrParams& 
 
 template <class X>
 Frame render_grid_iso(const volume::DensityGrid& g, const VolumeRenderParams& p, X& exec) {
-    GridWords gw = GridWords::from(g);
+    GridWords gw = GridWords::from(g, GridBorder::clamp());
     std::vector<std::uint32_t> words = dvr_params(gw, p);
     shared::Words pw{words.data(), words.size()}, grid{gw.words.data(), gw.words.size()}, tw{p.tf.data(), p.tf.size()};
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);

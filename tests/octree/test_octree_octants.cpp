@@ -100,7 +100,7 @@ TEST_CASE("octant-masked DVR renders the unmasked image bit for bit with fewer s
         octree::Tree t = octree::build(c.grid, pool, c.cfg);
         std::vector<std::uint32_t> words = octree::encode(t);
         octree::OctantRanges ranges = octree::octant_ranges(words, t.bricks, pool);
-        GridWords gw = GridWords::from(c.grid);
+        GridWords gw = GridWords::from(c.grid, GridBorder::clamp());
         for (float lo : {0.3f, 0.6f})
             for (bool shading : {false, true})
                 for (std::uint32_t max_level : {0xFFFFFFFFu, t.levels > 1 ? t.levels - 2u : 0u}) {

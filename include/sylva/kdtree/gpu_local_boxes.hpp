@@ -169,7 +169,7 @@ struct BoxSource {
     vec3 spacing{1.0f};
     std::span<const std::byte> bytes;  ///< voxels, x fastest, little endian
     float range_lo = 0.0f;             ///< volumes: the raw value that maps to density 0
-    float range_inv = 0.0f;            ///< volumes: 1 / (range_hi - range_lo), 0 for an empty range
+    float range_span = 0.0f;           ///< volumes: range_hi - range_lo (<= 0: an empty range, density 0)
     bool normalise = true;             ///< false for density grids (values used as they are)
     bool occupancy = false;            ///< bytes are a materialised occupancy (0 / 1)
 
@@ -194,7 +194,7 @@ struct BoxSource {
         s.spacing = v.spacing;
         s.bytes = std::span<const std::byte>(v.bytes);
         s.range_lo = v.range_lo;
-        s.range_inv = volume::detail::inverse_span(v);
+        s.range_span = volume::detail::value_span(v);
         return s;
     }
     /// A normalised density grid (float32, values classified as they are).
@@ -252,7 +252,7 @@ void value_table(const BoxSource& s, const C& classify, std::vector<std::uint8_t
     if (s.source == SYLVA_KD_BOX_SOURCE_F32) throw Error("kdtree: float32 voxels have no per-value table");
     table.resize(s.source == SYLVA_KD_BOX_SOURCE_U8 ? 256u : 65536u);
     for (std::size_t i = 0; i < table.size(); ++i)
-        table[i] = s.occupancy ? (i != 0) : (classify(volume::detail::normalised(static_cast<float>(i), s.range_lo, s.range_inv)) ? 1u : 0u);
+        table[i] = s.occupancy ? (i != 0) : (classify(volume::detail::normalised(static_cast<float>(i), s.range_lo, s.range_span)) ? 1u : 0u);
 }
 
 /// The device classification of `classify` over `s`, into `out` (storage reused). Integer
@@ -294,7 +294,7 @@ BoxClassifier box_classifier(const BoxSource& s, const C& classify) {
 /// The parameter block of the pass (layout in sylva/shared/kd_local_boxes.h).
 inline std::array<std::uint32_t, SYLVA_KD_BOX_PARAM_WORDS> box_params(const BoxSource& s, const BoxClassifier& c) {
     return {s.dims.x, s.dims.y, s.dims.z, s.source, c.classify, detail::bits_of(c.cut), detail::bits_of(s.range_lo),
-            detail::bits_of(s.range_inv), s.normalise ? 1u : 0u, static_cast<std::uint32_t>(c.alphas.size())};
+            detail::bits_of(s.range_span), s.normalise ? 1u : 0u, static_cast<std::uint32_t>(c.alphas.size())};
 }
 
 /// Block layers (8 z-slices each) per slab so that a slab's voxels fit `max_bytes` (and 32-bit
@@ -420,7 +420,7 @@ namespace detail {
 
 /// Density of a raw float value as the classified sources compute it (monotone in the value).
 inline float box_density(const BoxSource& s, float x) {
-    return s.normalise ? volume::detail::normalised(x, s.range_lo, s.range_inv) : x;
+    return s.normalise ? volume::detail::normalised(x, s.range_lo, s.range_span) : x;
 }
 
 /// TransferFunction::at's entry index of density d (monotone in d).

@@ -1,18 +1,67 @@
-// sylva/shared/grid_sample.h -- trilinear sampling of a float32 density grid held as words, and
-// the central-difference gradient computed on the fly (Kinkelin section 6.2, traditional DVR).
+// sylva/shared/grid_sample.h -- trilinear sampling of a density grid held as 32-bit words, in
+// one of three voxel formats, with a border mode, and the central-difference gradient computed
+// on the fly (Kinkelin section 6.2, traditional DVR).
 //
-// The grid is a buffer `grid` of dims.x * dims.y * dims.z words, each the float bits of a
-// normalised density; voxel (x, y, z) is word x + dims.x * (y + dims.y * z) (x fastest).
+// Grid words (buffer `grid`), voxel i = x + dims.x * (y + dims.y * z) (x fastest):
+//   SYLVA_GRID_F32  one voxel a word: the float bits of a normalised density
+//   SYLVA_GRID_U8   four voxels a word: voxel i in bits 8 (i & 3) .. 8 (i & 3) + 7 of word i >> 2
+//   SYLVA_GRID_U16  two voxels a word: voxel i in bits 16 (i & 1) .. of word i >> 1
+// (little-endian byte order, so a uint8/uint16 volume's bytes are its words unchanged). An
+// integer voxel of raw value v reads as density clamp((v - lo) / span, 0, 1) with lo = value_lo
+// and span = value_span (> 0) -- the division as written, so lo = 0, span = 255 gives exactly
+// v / 255, the value volume::normalize stores (sylva/volume/grid.hpp).
+//
 // Cell convention of sylva/volume/grid.hpp: voxel v covers [v * spacing, (v + 1) * spacing], so
-// world point p has the continuous voxel index u = p / spacing - 0.5, clamped to [0, dims - 1]
-// (edge voxels repeat outside their centres); the density is the trilinear blend of the eight
-// voxels around u. Callers keep the voxel count below 2^32 (the host checks it).
+// world point p has the continuous voxel index u = p / spacing - 0.5; the density is the
+// trilinear blend of the eight voxels around u. Outside the voxel centres the border mode
+// decides (docs/DESIGN.md; VTK and NanoVDB read a background value there):
+//   SYLVA_BORDER_CLAMP     u is clamped to [0, dims - 1]: edge voxels repeat outside.
+//   SYLVA_BORDER_CONSTANT  voxels outside [0, dims) read border_value (normalised density);
+//                          u is clamped to [-1, dims] first (further out every corner is border).
+// Both modes compute the same arithmetic wherever u lies within [0, dims - 1] on every axis.
+// Callers keep the voxel count below 2^32 (the host checks it).
 #ifndef SYLVA_SHARED_GRID_SAMPLE_H
 #define SYLVA_SHARED_GRID_SAMPLE_H
 
 #include "sylva/shared/lang.h"
 
+// The border and format codes of the parameter block (sylva/shared/dvr_common.h, words 38, 40).
+#ifndef SYLVA_BORDER_CLAMP
+#define SYLVA_BORDER_CLAMP 0u
+#define SYLVA_BORDER_CONSTANT 1u
+#endif
+#ifndef SYLVA_GRID_F32
+#define SYLVA_GRID_F32 0u
+#define SYLVA_GRID_U8 1u
+#define SYLVA_GRID_U16 2u
+#endif
+
 SYLVA_BEGIN_NAMESPACE
+
+/// What a sampler needs to know about the grid (from the parameter block: sylva_dvr_grid in
+/// sylva/shared/dvr.h).
+struct SylvaGridDesc {
+    uvec3 dims;
+    vec3 spacing;
+    uint border;         ///< SYLVA_BORDER_*
+    float border_value;  ///< density outside the grid (SYLVA_BORDER_CONSTANT)
+    uint format;         ///< SYLVA_GRID_*
+    float value_lo;      ///< integer formats: raw value of density 0
+    float value_span;    ///< integer formats: raw values per unit of density (> 0)
+};
+
+/// A float32 grid with edge clamping (the sampler before border modes and formats).
+SYLVA_FN SylvaGridDesc sylva_grid_f32_clamped(uvec3 dims, vec3 spacing) {
+    SylvaGridDesc g;
+    g.dims = dims;
+    g.spacing = spacing;
+    g.border = SYLVA_BORDER_CLAMP;
+    g.border_value = 0.0f;
+    g.format = SYLVA_GRID_F32;
+    g.value_lo = 0.0f;
+    g.value_span = 1.0f;
+    return g;
+}
 
 /// x clamped to [lo, hi]; NaN becomes lo.
 SYLVA_FN float sylva_grid_clamp(float x, float lo, float hi) { return (x > hi) ? hi : ((x >= lo) ? x : lo); }
@@ -23,7 +72,25 @@ SYLVA_FN float sylva_grid_lerp(float a, float b, float f) {
     return r;
 }
 
+/// Normalised density of voxel index i (< the voxel count) in g's format.
+SYLVA_FN float sylva_grid_word_density(SYLVA_BUF(grid), SylvaGridDesc g, uint i) {
+    if (g.format == SYLVA_GRID_F32) return uintBitsToFloat(SYLVA_LOAD(grid, i));
+    uint raw;
+    if (g.format == SYLVA_GRID_U8) {
+        raw = (SYLVA_LOAD(grid, i >> 2u) >> ((i & 3u) * 8u)) & 255u;
+    } else {
+        raw = (SYLVA_LOAD(grid, i >> 1u) >> ((i & 1u) * 16u)) & 65535u;
+    }
+    SYLVA_PRECISE float d = (float(raw) - g.value_lo) / g.value_span;
+    return sylva_grid_clamp(d, 0.0f, 1.0f);
+}
+
 /// Density of voxel (x, y, z); indices must be inside dims (reads past the buffer give 0).
+SYLVA_FN float sylva_grid_voxel_of(SYLVA_BUF(grid), SylvaGridDesc g, uint x, uint y, uint z) {
+    return sylva_grid_word_density(SYLVA_PASS_BUF(grid), g, x + g.dims.x * (y + g.dims.y * z));
+}
+
+/// Density of voxel (x, y, z) of a float32 grid (kept for callers of the float-only sampler).
 SYLVA_FN float sylva_grid_voxel(SYLVA_BUF(grid), uvec3 dims, uint x, uint y, uint z) {
     return uintBitsToFloat(SYLVA_LOAD(grid, x + dims.x * (y + dims.y * z)));
 }
@@ -34,43 +101,88 @@ SYLVA_FN float sylva_grid_index(float p, float s, uint n) {
     return sylva_grid_clamp(u, 0.0f, float((n > 0u) ? n - 1u : 0u));
 }
 
-/// Trilinear density at world point p of a grid with `dims` voxels of size `spacing`.
-SYLVA_FN float sylva_grid_density(SYLVA_BUF(grid), uvec3 dims, vec3 spacing, vec3 p) {
-    vec3 u = vec3(sylva_grid_index(p.x, spacing.x, dims.x), sylva_grid_index(p.y, spacing.y, dims.y),
-                  sylva_grid_index(p.z, spacing.z, dims.z));
+/// Density of the voxel at signed coordinates (x, y, z): border_value outside the grid.
+SYLVA_FN float sylva_grid_voxel_or_border(SYLVA_BUF(grid), SylvaGridDesc g, int x, int y, int z) {
+    if (x < 0 || y < 0 || z < 0 || uint(x) >= g.dims.x || uint(y) >= g.dims.y || uint(z) >= g.dims.z) {
+        return g.border_value;
+    }
+    return sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, uint(x), uint(y), uint(z));
+}
+
+/// Trilinear density at world point p, border constant (SYLVA_BORDER_CONSTANT).
+SYLVA_FN float sylva_grid_sample_constant(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+    SYLVA_PRECISE vec3 v = vec3(p.x / g.spacing.x - 0.5f, p.y / g.spacing.y - 0.5f, p.z / g.spacing.z - 0.5f);
+    vec3 u = vec3(sylva_grid_clamp(v.x, -1.0f, float(g.dims.x)), sylva_grid_clamp(v.y, -1.0f, float(g.dims.y)),
+                  sylva_grid_clamp(v.z, -1.0f, float(g.dims.z)));
+    vec3 fl = vec3(floor(u.x), floor(u.y), floor(u.z));
+    int x0 = int(fl.x);
+    int y0 = int(fl.y);
+    int z0 = int(fl.z);
+    SYLVA_PRECISE vec3 f = vec3(u.x - fl.x, u.y - fl.y, u.z - fl.z);
+    float c00 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0, z0),
+                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0, z0), f.x);
+    float c10 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0 + 1, z0),
+                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0 + 1, z0), f.x);
+    float c01 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0, z0 + 1),
+                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0, z0 + 1), f.x);
+    float c11 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0 + 1, z0 + 1),
+                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0 + 1, z0 + 1), f.x);
+    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+}
+
+/// Trilinear density at world point p, edges clamped (SYLVA_BORDER_CLAMP).
+SYLVA_FN float sylva_grid_sample_clamped(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+    uvec3 dims = g.dims;
+    vec3 u = vec3(sylva_grid_index(p.x, g.spacing.x, dims.x), sylva_grid_index(p.y, g.spacing.y, dims.y),
+                  sylva_grid_index(p.z, g.spacing.z, dims.z));
     uvec3 i0 = uvec3(uint(u.x), uint(u.y), uint(u.z));  // u >= 0: truncation is floor
     uvec3 i1 = uvec3((i0.x + 1u < dims.x) ? i0.x + 1u : i0.x, (i0.y + 1u < dims.y) ? i0.y + 1u : i0.y,
                      (i0.z + 1u < dims.z) ? i0.z + 1u : i0.z);
     SYLVA_PRECISE vec3 f = vec3(u.x - float(i0.x), u.y - float(i0.y), u.z - float(i0.z));
-    float c00 = sylva_grid_lerp(sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i0.x, i0.y, i0.z),
-                                sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i1.x, i0.y, i0.z), f.x);
-    float c10 = sylva_grid_lerp(sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i0.x, i1.y, i0.z),
-                                sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i1.x, i1.y, i0.z), f.x);
-    float c01 = sylva_grid_lerp(sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i0.x, i0.y, i1.z),
-                                sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i1.x, i0.y, i1.z), f.x);
-    float c11 = sylva_grid_lerp(sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i0.x, i1.y, i1.z),
-                                sylva_grid_voxel(SYLVA_PASS_BUF(grid), dims, i1.x, i1.y, i1.z), f.x);
+    float c00 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i0.z), f.x);
+    float c10 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i0.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i0.z), f.x);
+    float c01 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i1.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i1.z), f.x);
+    float c11 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i1.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i1.z), f.x);
     return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+}
+
+/// Trilinear density at world point p of the grid g (format and border mode of g).
+SYLVA_FN float sylva_grid_sample(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+    if (g.border == SYLVA_BORDER_CONSTANT) return sylva_grid_sample_constant(SYLVA_PASS_BUF(grid), g, p);
+    return sylva_grid_sample_clamped(SYLVA_PASS_BUF(grid), g, p);
 }
 
 /// Central-difference gradient at world point p from six trilinear samples one voxel away:
 /// (d(p + s e_i) - d(p - s e_i)) / 2 per axis, i.e. the change of density across one voxel
 /// (the convention of the voxel payload, sylva/shared/voxel.h). Divide by spacing for the
-/// world-space gradient.
-SYLVA_FN vec3 sylva_grid_gradient(SYLVA_BUF(grid), uvec3 dims, vec3 spacing, vec3 p) {
-    SYLVA_PRECISE vec3 px0 = vec3(p.x - spacing.x, p.y, p.z);
-    SYLVA_PRECISE vec3 px1 = vec3(p.x + spacing.x, p.y, p.z);
-    SYLVA_PRECISE vec3 py0 = vec3(p.x, p.y - spacing.y, p.z);
-    SYLVA_PRECISE vec3 py1 = vec3(p.x, p.y + spacing.y, p.z);
-    SYLVA_PRECISE vec3 pz0 = vec3(p.x, p.y, p.z - spacing.z);
-    SYLVA_PRECISE vec3 pz1 = vec3(p.x, p.y, p.z + spacing.z);
-    float gx = sylva_grid_density(SYLVA_PASS_BUF(grid), dims, spacing, px1) -
-               sylva_grid_density(SYLVA_PASS_BUF(grid), dims, spacing, px0);
-    float gy = sylva_grid_density(SYLVA_PASS_BUF(grid), dims, spacing, py1) -
-               sylva_grid_density(SYLVA_PASS_BUF(grid), dims, spacing, py0);
-    float gz = sylva_grid_density(SYLVA_PASS_BUF(grid), dims, spacing, pz1) -
-               sylva_grid_density(SYLVA_PASS_BUF(grid), dims, spacing, pz0);
+/// world-space gradient. Samples outside the grid follow g's border mode.
+SYLVA_FN vec3 sylva_grid_sample_gradient(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+    vec3 s = g.spacing;
+    SYLVA_PRECISE vec3 px0 = vec3(p.x - s.x, p.y, p.z);
+    SYLVA_PRECISE vec3 px1 = vec3(p.x + s.x, p.y, p.z);
+    SYLVA_PRECISE vec3 py0 = vec3(p.x, p.y - s.y, p.z);
+    SYLVA_PRECISE vec3 py1 = vec3(p.x, p.y + s.y, p.z);
+    SYLVA_PRECISE vec3 pz0 = vec3(p.x, p.y, p.z - s.z);
+    SYLVA_PRECISE vec3 pz1 = vec3(p.x, p.y, p.z + s.z);
+    float gx = sylva_grid_sample(SYLVA_PASS_BUF(grid), g, px1) - sylva_grid_sample(SYLVA_PASS_BUF(grid), g, px0);
+    float gy = sylva_grid_sample(SYLVA_PASS_BUF(grid), g, py1) - sylva_grid_sample(SYLVA_PASS_BUF(grid), g, py0);
+    float gz = sylva_grid_sample(SYLVA_PASS_BUF(grid), g, pz1) - sylva_grid_sample(SYLVA_PASS_BUF(grid), g, pz0);
     return vec3(gx, gy, gz) * 0.5f;
+}
+
+/// Trilinear density of a float32 grid, edges clamped (sylva_grid_sample with
+/// sylva_grid_f32_clamped; kept for callers that read a plain float grid).
+SYLVA_FN float sylva_grid_density(SYLVA_BUF(grid), uvec3 dims, vec3 spacing, vec3 p) {
+    return sylva_grid_sample_clamped(SYLVA_PASS_BUF(grid), sylva_grid_f32_clamped(dims, spacing), p);
+}
+
+/// sylva_grid_sample_gradient of a float32 grid with edges clamped.
+SYLVA_FN vec3 sylva_grid_gradient(SYLVA_BUF(grid), uvec3 dims, vec3 spacing, vec3 p) {
+    return sylva_grid_sample_gradient(SYLVA_PASS_BUF(grid), sylva_grid_f32_clamped(dims, spacing), p);
 }
 
 SYLVA_END_NAMESPACE

@@ -83,7 +83,7 @@ SYLVA_FN uint sylva_kd_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(grid)
         if (!(t < t_end) || acc.alpha >= p.alpha_stop) break;
         samples = samples + 1u;
         vec3 x = sylva_dvr_at(origin, d, t);
-        float density = sylva_grid_density(SYLVA_PASS_BUF(grid), p.dims, p.spacing, x);
+        float density = sylva_grid_sample(SYLVA_PASS_BUF(grid), sylva_dvr_grid(p), x);
         if (density > 0.0f) {
             sylva_dvr_march_sample(acc, SYLVA_PASS_BUF(grid), SYLVA_PASS_BUF(tf), p, x, density, d, units);
         }

@@ -25,8 +25,9 @@
 //           0-2 grid dimensions x, y, z     3 source (SYLVA_KD_BOX_SOURCE_*)
 //           4   classify (SYLVA_KD_BOX_CLASSIFY_*)
 //           5   cut (float bits): THRESHOLD occupied when density >= cut; ALPHA when alpha > cut
-//           6   range_lo (float bits)       7 range_inv (float bits)
-//           8   normalise: 1 = density clamp((raw - range_lo) * range_inv, 0, 1) and non-finite
+//           6   range_lo (float bits)       7 range_span (float bits): range_hi - range_lo
+//           8   normalise: 1 = density clamp((raw - range_lo) / range_span, 0, 1) (0 when
+//               range_span <= 0; the division as written, as volume::normalize) and non-finite
 //               raw values are bad (volume::ClassifiedVolume); 0 = density = raw value and only
 //               NaN is bad (volume::ClassifiedGrid)
 //           9   transfer-function entries (ALPHA; >= 2)
@@ -64,7 +65,7 @@ struct SylvaKdBoxParams {
     uint classify;
     float cut;
     float range_lo;
-    float range_inv;
+    float range_span;
     uint normalise;
     uint tf_entries;
 };
@@ -78,7 +79,7 @@ SYLVA_FN SylvaKdBoxParams sylva_kd_box_params(SYLVA_BUF(params), uint slab_z0) {
     p.classify = SYLVA_LOAD(params, 4u);
     p.cut = uintBitsToFloat(SYLVA_LOAD(params, 5u));
     p.range_lo = uintBitsToFloat(SYLVA_LOAD(params, 6u));
-    p.range_inv = uintBitsToFloat(SYLVA_LOAD(params, 7u));
+    p.range_span = uintBitsToFloat(SYLVA_LOAD(params, 7u));
     p.normalise = SYLVA_LOAD(params, 8u);
     p.tf_entries = SYLVA_LOAD(params, 9u);
     return p;
@@ -105,7 +106,8 @@ SYLVA_FN bool sylva_kd_box_bad(float x, bool any_nonfinite) {
 /// itself for a density grid.
 SYLVA_FN float sylva_kd_box_density(SylvaKdBoxParams p, float x) {
     if (p.normalise == 0u) return x;
-    SYLVA_PRECISE float d = (x - p.range_lo) * p.range_inv;
+    if (!(p.range_span > 0.0f)) return 0.0f;
+    SYLVA_PRECISE float d = (x - p.range_lo) / p.range_span;
     return (d > 1.0f) ? 1.0f : ((d > 0.0f) ? d : 0.0f);
 }
 

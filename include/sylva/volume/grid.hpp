@@ -8,7 +8,8 @@
 //    [0, dims * spacing]. Trilinear reconstruction interpolates between voxel centres and
 //    clamps to the edge voxels outside them.
 //  * Normalised density is in [0, 1]: clamp((value - lo) / (hi - lo), 0, 1) over the volume's
-//    value range [range_lo, range_hi]. The readers choose it (sylva/volume/value_range.hpp):
+//    value range [range_lo, range_hi], the division as written (uint8 over 0..255 is exactly
+//    v / 255). The readers choose it (sylva/volume/value_range.hpp):
 //    by default the file's stated range or the data's min/max.
 #ifndef SYLVA_VOLUME_GRID_HPP
 #define SYLVA_VOLUME_GRID_HPP
@@ -185,13 +186,47 @@ inline DensityGrid normalize(const Volume& v) {
                     scalar_name(v.type) + " voxels");
     DensityGrid g{v.dims, v.spacing, std::vector<float>(n)};
     float lo = v.range_lo, span = v.range_hi - v.range_lo;
-    float inv = span > 0.0f ? 1.0f / span : 0.0f;
     for (std::size_t i = 0; i < n; ++i) {
         float x = v.value(i);
         if (!std::isfinite(x)) throw Error("volume: voxel " + std::to_string(i) + " is not a finite number");
-        g.values[i] = glm::clamp((x - lo) * inv, 0.0f, 1.0f);
+        g.values[i] = span > 0.0f ? glm::clamp((x - lo) / span, 0.0f, 1.0f) : 0.0f;
     }
     return g;
+}
+
+/// Sets every density below `threshold` to 0 (values >= threshold stay as they are): the
+/// "below threshold is empty" cut of a segmentation, which a border of constant 0 continues.
+/// Returns how many voxels it zeroed. Throws sylva::Error for a non-finite threshold.
+inline std::size_t threshold_to_zero(DensityGrid& g, float threshold) {
+    if (!std::isfinite(threshold)) throw Error("volume: the threshold is not finite");
+    std::size_t zeroed = 0;
+    for (float& v : g.values)
+        if (v < threshold && v != 0.0f) {
+            v = 0.0f;
+            ++zeroed;
+        }
+    return zeroed;
+}
+
+/// The same cut on raw voxel values of a volume of any type: every voxel whose raw value is
+/// below `raw_threshold` becomes 0 (a raw 0, which is density 0 when range_lo is 0). Returns
+/// how many voxels it changed. Throws sylva::Error for a non-finite threshold or a byte count
+/// that does not match the dimensions.
+inline std::size_t threshold_to_zero(Volume& v, float raw_threshold) {
+    if (!std::isfinite(raw_threshold)) throw Error("volume: the threshold is not finite");
+    std::size_t bytes = scalar_bytes(v.type), n = voxel_count(v.dims, bytes);
+    if (v.bytes.size() != n * bytes)
+        throw Error("volume: " + std::to_string(v.bytes.size()) + " bytes do not match " + std::to_string(n) + " " +
+                    scalar_name(v.type) + " voxels");
+    std::size_t zeroed = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        float x = v.value(i);
+        if (x < raw_threshold && x != 0.0f) {
+            std::memset(&v.bytes[i * bytes], 0, bytes);
+            ++zeroed;
+        }
+    }
+    return zeroed;
 }
 
 }  // namespace sylva::volume

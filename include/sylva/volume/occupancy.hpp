@@ -140,22 +140,23 @@ struct Occupancy {
 
 namespace detail {
 
-/// Normalised density of raw value x, computed exactly as volume::normalize does.
-inline float normalised(float x, float lo, float inv) { return glm::clamp((x - lo) * inv, 0.0f, 1.0f); }
-
-inline float inverse_span(const Volume& v) {
-    float span = v.range_hi - v.range_lo;
-    return span > 0.0f ? 1.0f / span : 0.0f;
+/// Normalised density of raw value x, computed exactly as volume::normalize does:
+/// clamp((x - lo) / span, 0, 1), 0 for an empty range (span <= 0).
+inline float normalised(float x, float lo, float span) {
+    return span > 0.0f ? glm::clamp((x - lo) / span, 0.0f, 1.0f) : 0.0f;
 }
+
+/// range_hi - range_lo of a volume (normalised reads 0 everywhere when it is <= 0).
+inline float value_span(const Volume& v) { return v.range_hi - v.range_lo; }
 
 /// One byte per possible raw value of an integer volume: the classifier's verdict on it.
 template <class C>
 std::vector<std::uint8_t> value_table(const Volume& v, const C& classify) {
     std::size_t values = v.type == ScalarType::U8 ? 256u : 65536u;
     std::vector<std::uint8_t> lut(values);
-    float inv = inverse_span(v);
+    float span = value_span(v);
     for (std::size_t i = 0; i < values; ++i)
-        lut[i] = classify(normalised(static_cast<float>(i), v.range_lo, inv)) ? 1u : 0u;
+        lut[i] = classify(normalised(static_cast<float>(i), v.range_lo, span)) ? 1u : 0u;
     return lut;
 }
 
@@ -174,7 +175,7 @@ public:
             throw Error("occupancy: " + std::to_string(v.bytes.size()) + " bytes do not match " + std::to_string(n) +
                         " " + scalar_name(v.type) + " voxels");
         if (v.type != ScalarType::F32) lut_ = detail::value_table(v, classify_);
-        inv_ = detail::inverse_span(v);
+        span_ = detail::value_span(v);
     }
 
     Dims dims;
@@ -205,14 +206,14 @@ private:
         for (std::size_t i = 0; i < n; ++i) {
             float x = g.data[at + i];
             if (!std::isfinite(x)) throw Error("occupancy: voxel " + std::to_string(at + i) + " is not a finite number");
-            out[i] = classify_(detail::normalised(x, volume_->range_lo, inv_)) ? 1u : 0u;
+            out[i] = classify_(detail::normalised(x, volume_->range_lo, span_)) ? 1u : 0u;
         }
     }
 
     const Volume* volume_;
     C classify_;
     std::vector<std::uint8_t> lut_;
-    float inv_ = 0.0f;
+    float span_ = 0.0f;
 };
 
 /// A normalised DensityGrid classified on the fly; the grid must outlive it. NaN densities

@@ -1,0 +1,132 @@
+// sylva/render/grid_view.hpp -- how the grid samplers read a volume (sylva/shared/grid_sample.h):
+// the voxel format of the grid words (float32 densities, or uint8 / uint16 raw values packed
+// four / two a word and normalised on the fly with a value range), and the border mode (what a
+// sample reads outside the voxel centres: the edge voxel, or a constant).
+//
+//   volume::Volume v = volume::read_raw(...);                  // uint8, 256^3
+//   GridWords g = GridWords::native(v);                          // 16.8 MB of words, no float copy
+//   GridWords f = GridWords::from(volume::normalize(v));        // 67.1 MB, the same image
+//
+// Exactness. An integer voxel of raw value r reads as clamp((r - lo) / span, 0, 1), the division
+// as written (sylva/shared/grid_sample.h), which is what volume::normalize stores for the same
+// range (sylva/volume/grid.hpp), so a native grid and its normalised float copy give the same
+// densities bit for bit, and the renderers the same images.
+//
+// Border (word 38-39 of the parameter block, sylva/shared/dvr_common.h). Constant 0 is the
+// default for DVR, as VTK and NanoVDB read a background value outside the data; clamping to the
+// edge voxel is the other choice (and what the octree's brick aprons hold: the octree renderers
+// always clamp).
+#ifndef SYLVA_RENDER_GRID_VIEW_HPP
+#define SYLVA_RENDER_GRID_VIEW_HPP
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sylva/core/error.hpp"
+#include "sylva/shared/dvr_common.h"
+#include "sylva/shared/grid_sample.h"
+#include "sylva/volume/grid.hpp"
+
+namespace sylva {
+
+/// Voxel format of grid words (SYLVA_GRID_*).
+enum class GridFormat : std::uint32_t {
+    F32 = SYLVA_GRID_F32,  ///< one normalised density a word (float bits)
+    U8 = SYLVA_GRID_U8,    ///< four raw uint8 values a word (voxel i in bits 8 (i & 3) ..)
+    U16 = SYLVA_GRID_U16,  ///< two raw uint16 values a word (voxel i in bits 16 (i & 1) ..)
+};
+
+/// What a sample reads outside the voxel centres (SYLVA_BORDER_*).
+enum class BorderMode : std::uint32_t {
+    Clamp = SYLVA_BORDER_CLAMP,        ///< the edge voxel repeats outside
+    Constant = SYLVA_BORDER_CONSTANT,  ///< a constant normalised density (GridBorder::value)
+};
+
+/// A border mode with its value.
+struct GridBorder {
+    BorderMode mode = BorderMode::Constant;  ///< default: constant 0 (VTK's and NanoVDB's background)
+    float value = 0.0f;                      ///< normalised density outside the grid (Constant)
+
+    static GridBorder clamp() { return GridBorder{BorderMode::Clamp, 0.0f}; }
+    static GridBorder constant(float v) { return GridBorder{BorderMode::Constant, v}; }
+    /// Throws sylva::Error for a non-finite border value.
+    void check() const {
+        if (mode != BorderMode::Clamp && mode != BorderMode::Constant) throw Error("grid: unknown border mode");
+        if (!std::isfinite(value)) throw Error("grid: the border value is not finite");
+    }
+};
+
+/// The sampler's view of grid words besides dims and spacing: format, value range, border.
+struct GridSampling {
+    GridFormat format = GridFormat::F32;
+    float value_lo = 0.0f;    ///< integer formats: raw value of density 0
+    float value_span = 1.0f;  ///< integer formats: hi - lo (> 0)
+    GridBorder border{};
+
+    /// Words 38-42 of the parameter block (sylva/shared/dvr_common.h); `params` holds them.
+    void pack(std::span<std::uint32_t> params) const {
+        params[38] = static_cast<std::uint32_t>(border.mode);
+        params[39] = std::bit_cast<std::uint32_t>(border.value);
+        params[40] = static_cast<std::uint32_t>(format);
+        params[41] = std::bit_cast<std::uint32_t>(value_lo);
+        params[42] = std::bit_cast<std::uint32_t>(value_span);
+    }
+    /// Throws sylva::Error for a bad format, range or border.
+    void check() const {
+        border.check();
+        if (format != GridFormat::F32 && format != GridFormat::U8 && format != GridFormat::U16)
+            throw Error("grid: unknown voxel format " + std::to_string(static_cast<std::uint32_t>(format)));
+        if (!std::isfinite(value_lo) || !std::isfinite(value_span) || !(value_span > 0.0f))
+            throw Error("grid: the value range must be finite with hi > lo");
+    }
+    /// The shared sampler's descriptor for a grid of `dims` voxels of size `spacing`.
+    [[nodiscard]] shared::SylvaGridDesc desc(volume::Dims dims, vec3 spacing) const {
+        shared::SylvaGridDesc g;
+        g.dims = uvec3(dims);
+        g.spacing = spacing;
+        g.border = static_cast<std::uint32_t>(border.mode);
+        g.border_value = border.value;
+        g.format = static_cast<std::uint32_t>(format);
+        g.value_lo = value_lo;
+        g.value_span = value_span;
+        return g;
+    }
+};
+
+/// Voxels a 32-bit word holds in format f.
+constexpr std::size_t voxels_per_word(GridFormat f) { return f == GridFormat::U8 ? 4u : (f == GridFormat::U16 ? 2u : 1u); }
+
+/// Bytes one voxel takes in format f.
+constexpr std::size_t grid_voxel_bytes(GridFormat f) { return 4u / voxels_per_word(f); }
+
+/// Words of a grid of n voxels in format f (the last word padded with zero voxels).
+constexpr std::size_t grid_word_count(GridFormat f, std::size_t n) {
+    return (n + voxels_per_word(f) - 1) / voxels_per_word(f);
+}
+
+/// The grid format that reads a volume's scalar type natively.
+inline GridFormat native_format(volume::ScalarType t) {
+    return t == volume::ScalarType::U8 ? GridFormat::U8 : (t == volume::ScalarType::U16 ? GridFormat::U16 : GridFormat::F32);
+}
+
+/// The voxel bytes of an integer volume as grid words (little-endian, so the bytes unchanged,
+/// the last word padded with zeros).
+inline std::vector<std::uint32_t> pack_voxel_words(const volume::Volume& v) {
+    if (v.type == volume::ScalarType::F32) throw Error("grid: float32 volumes are normalised, not packed");
+    std::size_t n = volume::voxel_count(v.dims, volume::scalar_bytes(v.type));
+    if (v.bytes.size() != n * volume::scalar_bytes(v.type))
+        throw Error("grid: " + std::to_string(v.bytes.size()) + " bytes do not match " + std::to_string(n) + " " +
+                    volume::scalar_name(v.type) + " voxels");
+    std::vector<std::uint32_t> words(grid_word_count(native_format(v.type), n), 0u);
+    if (!v.bytes.empty()) std::memcpy(words.data(), v.bytes.data(), v.bytes.size());
+    return words;
+}
+
+}  // namespace sylva
+
+#endif  // SYLVA_RENDER_GRID_VIEW_HPP
