@@ -256,12 +256,12 @@ bool write_nodes(std::vector<std::uint32_t>& w, const Tree& tree, std::span<cons
             }
             if (bitsv >> 62) throw Error("bih::encode: leaf payload does not fit in 62 bits");
             at[0] = static_cast<std::uint32_t>(bitsv);
-            meta = SYLVA_BIH_LEAF | (static_cast<std::uint32_t>(bitsv >> 32) << 2);
+            meta = shared::sylva_bih_meta_leaf(static_cast<std::uint32_t>(bitsv >> 32));
             continue;
         }
         single = single || n.single;
         write_planes(at, n, tree, f32);
-        meta = n.axis | (n.single ? 4u : 0u) | (pl.link[i] << 3);
+        meta = shared::sylva_bih_meta_inner(n.axis, n.single, pl.link[i]);
     }
     return single;
 }

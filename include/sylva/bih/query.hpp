@@ -2,8 +2,8 @@
 // shared one, and the first-hit and all-hits-in-order element queries.
 //
 // The element queries run a host walker (detail::Walker) instead of the shared iterator: the
-// same plane arithmetic, so the same leaves in the same order with the same intervals (a test
-// checks this against sylva_bih_next), but without the node boxes element queries do not need,
+// shared node functions in a host loop, so the same leaves in the same order with the same
+// intervals (a test checks this against sylva_bih_next), but without the node boxes element queries do not need,
 // with one bounds check per node instead of one per load, and a 12-byte stack entry. They take
 // the elements either through the tree's order (tree + elements) or already in leaf order
 // (LeafRecords: no order[] indirection, spheres tested four at a time).
@@ -104,9 +104,11 @@ inline int layout_of(std::span<const std::uint32_t> words) {
 }
 
 /// The shared iterator's traversal (sylva_bih_next: Kinkelin Alg. 1 and 2) without node boxes,
-/// for queries that only need leaves and intervals. Same arithmetic as the shared code, so the
-/// same leaves in the same order with bit-identical t0/t1, the same step count and status (a
-/// test checks all four). Loads are unchecked: the header check of sylva_bih_read_header
+/// for queries that only need leaves and intervals. Every decision about a node is the shared
+/// code's own functions (meta accessors, sylva_bih_decode_q, sylva_bih_children_at,
+/// sylva_bih_split_intervals, sylva_bih_single_interval, sylva_bih_left_first); only the loop,
+/// the stack and the register state are the walker's. So it yields the same leaves in the same
+/// order with bit-identical t0/t1, the same step count and status (a test checks all four). Loads are unchecked: the header check of sylva_bih_read_header
 /// guarantees node_count nodes fit in the buffer, and every node index is checked against
 /// node_count before it is read. Faster than the shared iterator on the host: no boxes, one
 /// bounds check per node, the state in registers, the child chosen with selects, the children's
@@ -133,7 +135,7 @@ public:
             org_[a] = (ray.origin[a] - h.space_origin[a]) * scale;
             par_[a] = d == 0.0f ? 1u : 0u;
             rcp_[a] = shared::sylva_safe_rcp(d);
-            near_[a] = (shared::floatBitsToUint(rcp_[a]) & 0x80000000u) != 0u ? 1u : 0u;
+            near_[a] = shared::sylva_bih_left_first(rcp_[a]) ? 0u : 1u;
             vec2 ab = shared::sylva_slab(fixed16 ? 0.0f : h.root_lo[a], fixed16 ? 1.0f : h.root_hi[a], org_[a], rcp_[a],
                                          par_[a]);
             t0 = shared::sylva_max(t0, ab.x);
@@ -165,7 +167,7 @@ public:
     /// The 62-bit payload of a leaf next() returned (as sylva_bih_payload).
     [[nodiscard]] std::uint64_t payload(std::uint32_t leaf) const {
         const std::uint32_t* at = words_ + SYLVA_BIH_HEADER_WORDS + std::size_t{leaf} * stride();
-        return std::uint64_t{at[0]} | (std::uint64_t{at[stride() - 1] >> 2u} << 32);
+        return std::uint64_t{at[0]} | (std::uint64_t{shared::sylva_bih_meta_payload_hi(at[stride() - 1])} << 32);
     }
     /// Prunes everything entered after t (as sylva_bih_clip).
     void clip(float t) { t_limit_ = shared::sylva_min(t_limit_, t); }
@@ -193,7 +195,7 @@ private:
             ++s.steps;
             const std::uint32_t* at = words_ + SYLVA_BIH_HEADER_WORDS + std::size_t{s.node} * stride();
             std::uint32_t meta = at[stride() - 1];
-            std::uint32_t axis = meta & 3u;
+            std::uint32_t axis = shared::sylva_bih_meta_type(meta);
             if (axis == SYLVA_BIH_LEAF) {
                 std::uint32_t leaf = s.node;
                 s.node = SYLVA_NO_NODE;
@@ -203,11 +205,12 @@ private:
                 }
                 continue;
             }
-            std::uint32_t link = chunked() ? (meta >> 3u) : s.node + 1u;  // first stored child
+            std::uint32_t link = shared::sylva_bih_first_child(chunked(), s.node, meta);
             prefetch(words_ + SYLVA_BIH_HEADER_WORDS + std::size_t{std::min(link, node_count_ - 1u)} * stride());
             vec2 planes = stride() == 3u ? vec2(bits_float(at[0]), bits_float(at[1]))
-                                        : vec2(decode_q(at[0] & 0xFFFFu), decode_q(at[0] >> 16u));
-            if ((meta & 4u) != 0u)
+                                        : vec2(shared::sylva_bih_decode_q(at[0] & 0xFFFFu),
+                                               shared::sylva_bih_decode_q(at[0] >> 16u));
+            if (shared::sylva_bih_meta_single(meta))
                 descend_single(s, axis, link, planes);
             else if (!descend(s, axis, meta, planes))
                 status = SYLVA_ITER_ERROR;
@@ -247,14 +250,6 @@ private:
         return f;
     }
 
-    /// sylva_bih_decode_q with selects instead of branches (the same values).
-    static float decode_q(std::uint32_t q) {
-        const float inf = std::numeric_limits<float>::infinity();
-        float v = static_cast<float>(static_cast<int>(q) - static_cast<int>(SYLVA_BIH_Q_ZERO)) * (1.0f / 32768.0f);
-        v = q == SYLVA_BIH_Q_NEG_INF ? -inf : v;
-        return q == SYLVA_BIH_Q_POS_INF ? inf : v;
-    }
-
     SYLVA_FORCEINLINE bool pop(State& s) const {  // sylva_bih_pop
         while (s.sp > 0) {
             const Entry& e = stack_[--s.sp];
@@ -271,20 +266,11 @@ private:
     /// sylva_bih_children + sylva_bih_descend. The nearer child hit is entered, the farther one
     /// pushed when both are hit; false when the stack would overflow (a corrupted tree).
     SYLVA_FORCEINLINE bool descend(State& s, std::uint32_t axis, std::uint32_t meta, vec2 planes) {
-        const float inf = std::numeric_limits<float>::infinity();
-        std::uint32_t index = meta >> 3u;
-        std::uint32_t first = chunked() ? index : s.node + 1u, second = chunked() ? index + 1u : index;
-        bool left_empty = planes.x == -inf, right_empty = planes.y == inf;
-        std::uint32_t left = left_empty ? SYLVA_NO_NODE : first;
-        std::uint32_t right = right_empty ? SYLVA_NO_NODE : (left_empty ? first : second);
-        float o = org_[axis], r = rcp_[axis];
-        std::uint32_t par = par_[axis];
-        vec2 hl = shared::sylva_half_space(planes.x, true, o, r, par);
-        vec2 hr = shared::sylva_half_space(planes.y, false, o, r, par);
-        Entry kid[2] = {{left, shared::sylva_max(s.t_in, hl.x), shared::sylva_min(s.t_out, hl.y)},
-                        {right, shared::sylva_max(s.t_in, hr.x), shared::sylva_min(s.t_out, hr.y)}};
-        std::uint32_t hit[2] = {(left != SYLVA_NO_NODE && kid[0].t_in <= kid[0].t_out) ? 1u : 0u,
-                                (right != SYLVA_NO_NODE && kid[1].t_in <= kid[1].t_out) ? 1u : 0u};
+        uvec2 kids = shared::sylva_bih_children_at(chunked(), s.node, meta, planes);
+        vec4 lr = shared::sylva_bih_split_intervals(s.t_in, s.t_out, planes, org_[axis], rcp_[axis], par_[axis]);
+        Entry kid[2] = {{kids.x, lr.x, lr.y}, {kids.y, lr.z, lr.w}};
+        std::uint32_t hit[2] = {(kids.x != SYLVA_NO_NODE && kid[0].t_in <= kid[0].t_out) ? 1u : 0u,
+                                (kids.y != SYLVA_NO_NODE && kid[1].t_in <= kid[1].t_out) ? 1u : 0u};
         std::uint32_t near = near_[axis], far = near ^ 1u;  // index 0 = left
         stack_[s.sp] = kid[far];  // kept only when both are hit
         s.sp += hit[near] & hit[far];
@@ -296,11 +282,10 @@ private:
     }
 
     SYLVA_FORCEINLINE void descend_single(State& s, std::uint32_t axis, std::uint32_t child, vec2 planes) const {
-        vec2 ab = shared::sylva_slab(planes.x, planes.y, org_[axis], rcp_[axis], par_[axis]);
-        float t0 = shared::sylva_max(s.t_in, ab.x), t1 = shared::sylva_min(s.t_out, ab.y);
-        s.node = t0 <= t1 ? child : SYLVA_NO_NODE;
-        s.t_in = t0;
-        s.t_out = t1;
+        vec2 t = shared::sylva_bih_single_interval(s.t_in, s.t_out, planes, org_[axis], rcp_[axis], par_[axis]);
+        s.node = t.x <= t.y ? child : SYLVA_NO_NODE;
+        s.t_in = t.x;
+        s.t_out = t.y;
     }
 
     void set(std::uint32_t node, vec2 t) {

@@ -50,7 +50,7 @@ inline void validate(std::span<const std::uint32_t> words, std::uint64_t element
         seen[it.node] = 1;
         if (it.depth > h.max_depth) throw Error("bih::validate: " + where + " is deeper than the header's max depth");
         uint meta = sylva_bih_meta(buf, h, it.node);
-        if ((meta & 3u) == SYLVA_BIH_LEAF) {
+        if (sylva_bih_meta_type(meta) == SYLVA_BIH_LEAF) {
             auto [first, count] = decode_range(std::uint64_t{sylva_bih_payload(buf, h, it.node).x} |
                                                (std::uint64_t{sylva_bih_payload(buf, h, it.node).y} << 32));
             if (kind == SYLVA_PAYLOAD_RANGE && element_count && std::uint64_t{first} + count > element_count)
@@ -59,8 +59,8 @@ inline void validate(std::span<const std::uint32_t> words, std::uint64_t element
         }
         vec2 planes = sylva_bih_planes(buf, h, it.node);
         if (std::isnan(planes.x) || std::isnan(planes.y)) throw Error("bih::validate: NaN plane at " + where);
-        if ((meta & 4u) != 0u) {
-            uint child = (h.flags & SYLVA_BIH_FLAG_CHUNKED) ? (meta >> 3u) : it.node + 1u;
+        if (sylva_bih_meta_single(meta)) {
+            uint child = sylva_bih_first_child((h.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u, it.node, meta);
             stack.push_back({child, it.depth + 1});
             continue;
         }

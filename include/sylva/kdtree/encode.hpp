@@ -114,12 +114,12 @@ inline void write_node(std::uint32_t* at, const Tree& t, std::size_t i) {
     }
     if (n.is_leaf()) {
         if (n.leaf >= t.leaves.size()) throw Error("kdtree::encode: leaf " + std::to_string(i) + " has no leaf index");
-        at[3] = SYLVA_KD_LEAF | (n.leaf << 2);
+        at[3] = shared::sylva_kd_meta_make(SYLVA_KD_LEAF, n.leaf);
         return;
     }
     if (n.axis > 2 || n.first_child <= i || std::size_t{n.first_child} + 1 >= t.nodes.size())
         throw Error("kdtree::encode: inner node " + std::to_string(i) + " has bad children");
-    at[3] = n.axis | (n.first_child << 2);
+    at[3] = shared::sylva_kd_meta_make(n.axis, n.first_child);
 }
 
 }  // namespace detail

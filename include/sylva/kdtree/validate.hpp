@@ -89,8 +89,8 @@ inline void validate(std::span<const std::uint32_t> words) {
         ++nodes;
         if (it.depth > h.max_depth) throw Error("kdtree::validate: " + where + " is deeper than the header's max depth");
         detail::check_box(words, h, it.node);
-        uint meta = sylva_kd_meta(buf, it.node), index = meta >> 2u;
-        if ((meta & 3u) == SYLVA_KD_LEAF) {
+        uint meta = sylva_kd_meta(buf, it.node), index = sylva_kd_meta_index(meta);
+        if (sylva_kd_meta_type(meta) == SYLVA_KD_LEAF) {
             if (index >= h.leaf_count || leaf_seen[index])
                 throw Error("kdtree::validate: leaf " + where + " has a bad or repeated leaf index");
             leaf_seen[index] = 1;
@@ -99,7 +99,7 @@ inline void validate(std::span<const std::uint32_t> words) {
         }
         if (index <= it.node || std::uint64_t{index} + 1 >= h.node_count)
             throw Error("kdtree::validate: child index out of range at " + where);
-        detail::check_children(words, it.node, meta & 3u, index);
+        detail::check_children(words, it.node, sylva_kd_meta_type(meta), index);
         stack.push_back({index + 1, it.depth + 1});
         stack.push_back({index, it.depth + 1});
     }

@@ -179,11 +179,9 @@ SYLVA_FN bool sylva_bih_pop(SYLVA_INOUT(SylvaBihIter) it) {
 }
 
 /// Where the children of inner node `n` are stored: (left, right); SYLVA_NO_NODE if empty.
-SYLVA_FN uvec2 sylva_bih_children(SylvaBihHeader h, uint n, uint meta, vec2 planes) {
-    uint index = meta >> 3u;
-    bool chunked = (h.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u;
-    uint first = chunked ? index : n + 1u;
-    uint second = chunked ? index + 1u : index;
+SYLVA_FN uvec2 sylva_bih_children_at(bool chunked, uint n, uint meta, vec2 planes) {
+    uint first = sylva_bih_first_child(chunked, n, meta);
+    uint second = chunked ? first + 1u : sylva_bih_meta_index(meta);
     bool left_empty = planes.x == -sylva_inf();
     bool right_empty = planes.y == sylva_inf();
     uint left = left_empty ? SYLVA_NO_NODE : first;
@@ -191,20 +189,42 @@ SYLVA_FN uvec2 sylva_bih_children(SylvaBihHeader h, uint n, uint meta, vec2 plan
     return uvec2(left, right);
 }
 
+SYLVA_FN uvec2 sylva_bih_children(SylvaBihHeader h, uint n, uint meta, vec2 planes) {
+    return sylva_bih_children_at((h.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u, n, meta, planes);
+}
+
+/// The ray's intervals in the left child (x <= plane A: .x, .y) and the right child
+/// (x >= plane B: .z, .w) of a two-child node entered over [t_in, t_out]; o, r, par: the ray's
+/// origin, reciprocal direction and parallel flag along the split axis. Empty when x > y.
+SYLVA_FN vec4 sylva_bih_split_intervals(float t_in, float t_out, vec2 planes, float o, float r, uint par) {
+    vec2 hl = sylva_half_space(planes.x, true, o, r, par);
+    vec2 hr = sylva_half_space(planes.y, false, o, r, par);
+    return vec4(sylva_max(t_in, hl.x), sylva_min(t_out, hl.y), sylva_max(t_in, hr.x), sylva_min(t_out, hr.y));
+}
+
+/// Whether the left child is the nearer one: the ray runs towards + along the axis (r = +0 and
+/// +inf count as +, the sign bit decides).
+SYLVA_FN bool sylva_bih_left_first(float r) { return (floatBitsToUint(r) & 0x80000000u) == 0u; }
+
+/// The ray's interval in the single child of a single-child node (within [plane A, plane B]).
+SYLVA_FN vec2 sylva_bih_single_interval(float t_in, float t_out, vec2 planes, float o, float r, uint par) {
+    vec2 ab = sylva_slab(planes.x, planes.y, o, r, par);
+    return vec2(sylva_max(t_in, ab.x), sylva_min(t_out, ab.y));
+}
+
 /// Descends into one child of a two-child node; returns true when it was entered.
 SYLVA_FN void sylva_bih_descend(SYLVA_INOUT(SylvaBihIter) it, uint axis, uvec2 kids, vec2 planes) {
     float o = sylva_pick(it.org, axis);
     float r = sylva_pick(it.rcp, axis);
     uint par = sylva_pick_u(it.parallel, axis);
-    vec2 hl = sylva_half_space(planes.x, true, o, r, par);
-    vec2 hr = sylva_half_space(planes.y, false, o, r, par);
-    vec2 tl = vec2(sylva_max(it.t_in, hl.x), sylva_min(it.t_out, hl.y));
-    vec2 tr = vec2(sylva_max(it.t_in, hr.x), sylva_min(it.t_out, hr.y));
+    vec4 lr = sylva_bih_split_intervals(it.t_in, it.t_out, planes, o, r, par);
+    vec2 tl = vec2(lr.x, lr.y);
+    vec2 tr = vec2(lr.z, lr.w);
     bool hit_l = kids.x != SYLVA_NO_NODE && tl.x <= tl.y;
     bool hit_r = kids.y != SYLVA_NO_NODE && tr.x <= tr.y;
     vec3 lo_r = sylva_with(it.lo, axis, planes.y);
     vec3 hi_l = sylva_with(it.hi, axis, planes.x);
-    bool left_first = (floatBitsToUint(r) & 0x80000000u) == 0u;
+    bool left_first = sylva_bih_left_first(r);
     if (hit_l && hit_r) {
         if (left_first) {
             sylva_bih_push(it, kids.y, tr, lo_r, it.hi);
@@ -229,10 +249,10 @@ SYLVA_FN void sylva_bih_descend(SYLVA_INOUT(SylvaBihIter) it, uint axis, uvec2 k
 
 /// Enters the single child of a single-child node, which lies within [plane A, plane B].
 SYLVA_FN void sylva_bih_descend_single(SYLVA_INOUT(SylvaBihIter) it, uint axis, uint child, vec2 planes) {
-    vec2 ab = sylva_slab(planes.x, planes.y, sylva_pick(it.org, axis), sylva_pick(it.rcp, axis),
-                         sylva_pick_u(it.parallel, axis));
-    float t0 = sylva_max(it.t_in, ab.x);
-    float t1 = sylva_min(it.t_out, ab.y);
+    vec2 t = sylva_bih_single_interval(it.t_in, it.t_out, planes, sylva_pick(it.org, axis), sylva_pick(it.rcp, axis),
+                                       sylva_pick_u(it.parallel, axis));
+    float t0 = t.x;
+    float t1 = t.y;
     if (t0 <= t1) {
         it.node = child;
         it.t_in = t0;
@@ -266,7 +286,7 @@ SYLVA_FN bool sylva_bih_visit(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SY
                               SYLVA_INOUT(float) t0, SYLVA_INOUT(float) t1) {
     uint n = it.node;
     uint meta = sylva_bih_meta(SYLVA_PASS_BUF(words), it.hdr, n);
-    uint type = meta & 3u;
+    uint type = sylva_bih_meta_type(meta);
     if (type == SYLVA_BIH_LEAF) {
         leaf = n;
         t0 = it.t_in;
@@ -277,8 +297,8 @@ SYLVA_FN bool sylva_bih_visit(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SY
         return true;
     }
     vec2 planes = sylva_bih_planes(SYLVA_PASS_BUF(words), it.hdr, n);
-    if ((meta & 4u) != 0u) {
-        uint child = ((it.hdr.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u) ? (meta >> 3u) : n + 1u;
+    if (sylva_bih_meta_single(meta)) {
+        uint child = sylva_bih_first_child((it.hdr.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u, n, meta);
         sylva_bih_descend_single(it, type, child, planes);
     } else {
         sylva_bih_descend(it, type, sylva_bih_children(it.hdr, n, meta, planes), planes);

@@ -54,6 +54,13 @@
 #define SYLVA_BIH_FLAG_CHUNKED 2u
 #define SYLVA_BIH_FLAG_SINGLE_CHILD 64u
 #define SYLVA_BIH_LEAF 3u
+/// Node meta word (the last word of a node): bits 0-1 type, bit 2 single-child flag (inner),
+/// bits 3-31 child index (inner) or bits 2-31 payload bits 32-61 (leaf). Read and written only
+/// through the sylva_bih_meta_* functions below.
+#define SYLVA_BIH_META_TYPE_MASK 3u
+#define SYLVA_BIH_META_SINGLE 4u
+#define SYLVA_BIH_META_INDEX_SHIFT 3u
+#define SYLVA_BIH_META_PAYLOAD_SHIFT 2u
 #define SYLVA_BIH_MAX_INDEX 0x1FFFFFFFu
 #define SYLVA_BIH_Q_ZERO 0x4000u
 #define SYLVA_BIH_Q_ONE 0xC000u
@@ -117,11 +124,34 @@ SYLVA_FN uint sylva_bih_meta(SYLVA_BUF(words), SylvaBihHeader h, uint i) {
     return SYLVA_LOAD(words, sylva_bih_node_at(h, i) + h.stride - 1u);
 }
 
-/// Decodes one 16-bit fixed-point plane into normalised space; sentinels become -inf/+inf.
+/// Type of a node from its meta word: split axis 0/1/2 or SYLVA_BIH_LEAF.
+SYLVA_FN uint sylva_bih_meta_type(uint meta) { return meta & SYLVA_BIH_META_TYPE_MASK; }
+/// Whether an inner node has a single child lying within [plane A, plane B].
+SYLVA_FN bool sylva_bih_meta_single(uint meta) { return (meta & SYLVA_BIH_META_SINGLE) != 0u; }
+/// The child index field of an inner node (see "Child addressing" above).
+SYLVA_FN uint sylva_bih_meta_index(uint meta) { return meta >> SYLVA_BIH_META_INDEX_SHIFT; }
+/// Payload bits 32-61 of a leaf.
+SYLVA_FN uint sylva_bih_meta_payload_hi(uint meta) { return meta >> SYLVA_BIH_META_PAYLOAD_SHIFT; }
+/// The meta word of an inner node (axis 0-2, index <= SYLVA_BIH_MAX_INDEX).
+SYLVA_FN uint sylva_bih_meta_inner(uint axis, bool single, uint index) {
+    return axis | (single ? SYLVA_BIH_META_SINGLE : 0u) | (index << SYLVA_BIH_META_INDEX_SHIFT);
+}
+/// The meta word of a leaf holding payload bits 32-61 `payload_hi` (< 2^30).
+SYLVA_FN uint sylva_bih_meta_leaf(uint payload_hi) {
+    return SYLVA_BIH_LEAF | (payload_hi << SYLVA_BIH_META_PAYLOAD_SHIFT);
+}
+/// Where the first stored child of inner node `n` is: after its parent (pre-order) or at the
+/// index field (tree chunks). A single child is the first stored child.
+SYLVA_FN uint sylva_bih_first_child(bool chunked, uint n, uint meta) {
+    return chunked ? sylva_bih_meta_index(meta) : n + 1u;
+}
+
+/// Decodes one 16-bit fixed-point plane into normalised space; sentinels become -inf/+inf
+/// (selects, not branches: the host walker's hot loop uses it too).
 SYLVA_FN float sylva_bih_decode_q(uint q) {
-    if (q == SYLVA_BIH_Q_NEG_INF) return -sylva_inf();
-    if (q == SYLVA_BIH_Q_POS_INF) return sylva_inf();
-    return float(int(q) - int(SYLVA_BIH_Q_ZERO)) * (1.0f / 32768.0f);
+    float v = float(int(q) - int(SYLVA_BIH_Q_ZERO)) * (1.0f / 32768.0f);
+    v = (q == SYLVA_BIH_Q_NEG_INF) ? -sylva_inf() : v;
+    return (q == SYLVA_BIH_Q_POS_INF) ? sylva_inf() : v;
 }
 
 /// Planes A and B of inner node `i`, in traversal space.
@@ -137,7 +167,7 @@ SYLVA_FN vec2 sylva_bih_planes(SYLVA_BUF(words), SylvaBihHeader h, uint i) {
 /// The 62-bit leaf payload of node `i` as (bits 0-31, bits 32-61).
 SYLVA_FN uvec2 sylva_bih_payload(SYLVA_BUF(words), SylvaBihHeader h, uint i) {
     uint at = sylva_bih_node_at(h, i);
-    return uvec2(SYLVA_LOAD(words, at), SYLVA_LOAD(words, at + h.stride - 1u) >> 2u);
+    return uvec2(SYLVA_LOAD(words, at), sylva_bih_meta_payload_hi(SYLVA_LOAD(words, at + h.stride - 1u)));
 }
 
 /// Traversal-space point back to world space: identity for float nodes, lo + p * (hi - lo) over

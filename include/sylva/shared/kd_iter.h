@@ -200,8 +200,8 @@ SYLVA_FN bool sylva_kd_next(SYLVA_INOUT(SylvaKdIter) it, SYLVA_BUF(words), SYLVA
         it.steps = it.steps + 1u;
         uint n = it.node;
         uint meta = sylva_kd_meta(SYLVA_PASS_BUF(words), n);
-        uint index = meta >> 2u;
-        if ((meta & 3u) == SYLVA_KD_LEAF) {
+        uint index = sylva_kd_meta_index(meta);
+        if (sylva_kd_meta_type(meta) == SYLVA_KD_LEAF) {
             if (index >= it.hdr.leaf_count) {
                 it.status = SYLVA_ITER_ERROR;
                 break;
@@ -217,7 +217,7 @@ SYLVA_FN bool sylva_kd_next(SYLVA_INOUT(SylvaKdIter) it, SYLVA_BUF(words), SYLVA
             it.status = SYLVA_ITER_ERROR;
             break;
         }
-        sylva_kd_descend(it, SYLVA_PASS_BUF(words), meta & 3u, index);
+        sylva_kd_descend(it, SYLVA_PASS_BUF(words), sylva_kd_meta_type(meta), index);
     }
     return false;
 }

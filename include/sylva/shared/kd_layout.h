@@ -40,6 +40,10 @@
 #define SYLVA_KD_HEADER_WORDS 20u
 #define SYLVA_KD_NODE_WORDS 4u
 #define SYLVA_KD_LEAF 3u
+/// Node word 3 (the meta word): bits 0-1 type, bits 2-31 index; read and written only through
+/// sylva_kd_meta_type / sylva_kd_meta_index / sylva_kd_meta_make.
+#define SYLVA_KD_META_TYPE_MASK 3u
+#define SYLVA_KD_META_INDEX_SHIFT 2u
 /// Largest child or leaf index the 30-bit field holds.
 #define SYLVA_KD_MAX_INDEX 0x3FFFFFFFu
 /// Largest grid dimension a 16-bit box coordinate holds.
@@ -92,6 +96,13 @@ SYLVA_FN uint sylva_kd_node_at(uint i) { return SYLVA_KD_HEADER_WORDS + i * SYLV
 
 /// The meta word (type and index) of node `i`.
 SYLVA_FN uint sylva_kd_meta(SYLVA_BUF(words), uint i) { return SYLVA_LOAD(words, sylva_kd_node_at(i) + 3u); }
+
+/// Type of a node from its meta word: split axis 0/1/2 or SYLVA_KD_LEAF.
+SYLVA_FN uint sylva_kd_meta_type(uint meta) { return meta & SYLVA_KD_META_TYPE_MASK; }
+/// Index field: the lower child (inner) or the leaf index (leaf).
+SYLVA_FN uint sylva_kd_meta_index(uint meta) { return meta >> SYLVA_KD_META_INDEX_SHIFT; }
+/// The meta word of a node of type `type` with index `index` (<= SYLVA_KD_MAX_INDEX).
+SYLVA_FN uint sylva_kd_meta_make(uint type, uint index) { return type | (index << SYLVA_KD_META_INDEX_SHIFT); }
 
 /// Lower corner of node `i`'s box, in voxels.
 SYLVA_FN uvec3 sylva_kd_box_lo(SYLVA_BUF(words), uint i) {
