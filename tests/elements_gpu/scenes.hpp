@@ -12,6 +12,10 @@
 #include <sylva/bih/build.hpp>
 #include <sylva/bih/encode.hpp>
 #include <sylva/elements/rbf.hpp>
+#include <sylva/kdtree/elements.hpp>
+#include <sylva/kdtree/elements_encode.hpp>
+#include <sylva/octree/elements.hpp>
+#include <sylva/octree/elements_encode.hpp>
 #include <sylva/render/elements.hpp>
 
 #include "capsule.h"
@@ -80,6 +84,20 @@ struct Scene {
         bih::Tree t = bih::build(es, cfg);
         words = bih::encode(t, es, bih::RangePayload{});
         records = pack_elements(es, std::span<const std::uint32_t>(t.order.data(), t.order.size()));
+    }
+    [[nodiscard]] std::uint32_t count() const { return static_cast<std::uint32_t>(elems.size()); }
+};
+
+/// A kd-tree (K = KdIndex) or an octree (K = OctreeIndex) over `elems`; records in their order.
+template <class E, class K>
+struct IndexScene {
+    std::vector<E> elems;
+    std::vector<std::uint32_t> words, records;
+    explicit IndexScene(std::vector<E> e) : elems(std::move(e)) {
+        std::span<const E> es(elems);
+        if constexpr (std::is_same_v<K, KdIndex>) words = kdtree::encode_elements(kdtree::build_elements(es));
+        else words = octree::encode_elements(octree::build_elements(es));
+        records = pack_elements(es);
     }
     [[nodiscard]] std::uint32_t count() const { return static_cast<std::uint32_t>(elems.size()); }
 };

@@ -24,15 +24,15 @@ double segment_distance(glm::dvec3 p, glm::dvec3 a, glm::dvec3 b) {
     return glm::length(p - a - h * ba);
 }
 
-template <class E>
-void check_hits_against_brute_force(const Scene<E>& s, std::size_t n_rays, std::uint32_t seed) {
+template <class E, class I = BihIndex, class S>
+void check_hits_against_brute_force(const S& s, std::size_t n_rays, std::uint32_t seed) {
     std::vector<Ray> rs;
     std::vector<Interval> ranges;
     rays(n_rays, seed, rs, ranges);
     std::size_t total = 0, nonempty = 0;
     for (std::size_t i = 0; i < rs.size(); ++i) {
         auto want = brute_hits<E>(s.records, s.count(), rs[i], ranges[i]);
-        auto got = element_hits_cpu<E>(s.words, s.records, rs[i], ranges[i]);
+        auto got = element_hits_cpu<E, I>(s.words, s.records, rs[i], ranges[i]);
         INFO("ray " << i << " o " << rs[i].origin.x << " " << rs[i].origin.y << " " << rs[i].origin.z << " d "
                     << rs[i].direction.x << " " << rs[i].direction.y << " " << rs[i].direction.z);
         REQUIRE(got.status == SYLVA_ITER_DONE);
@@ -48,7 +48,7 @@ void check_hits_against_brute_force(const Scene<E>& s, std::size_t n_rays, std::
         shared::SylvaHit first;
         std::uint32_t steps, status;
         shared::Words w{s.words.data(), s.words.size()}, e{s.records.data(), s.records.size()};
-        bool found = shared::sylva_elements_first_hit<E, shared::SylvaBihIter>(
+        bool found = shared::sylva_elements_first_hit<E, I>(
             w, static_cast<std::uint32_t>(s.words.size()), e, s.count(), rs[i].origin, rs[i].direction, ranges[i].t0,
             ranges[i].t1, first, steps, status);
         REQUIRE(found == !want.empty());
@@ -153,18 +153,45 @@ TEST_CASE("Sphere and GaussianRbf through the protocol keep their former results
 }
 
 TEST_CASE("capsules: all hits in order and the first hit equal brute force over all elements", "[elements]") {
-    SECTION("one capsule a leaf (trimmed)") { check_hits_against_brute_force(Scene<demo::Capsule>(capsules(3000, 21)), 400, 22); }
+    SECTION("one capsule a leaf (trimmed)") {
+        check_hits_against_brute_force<demo::Capsule>(Scene<demo::Capsule>(capsules(3000, 21)), 400, 22);
+    }
     SECTION("leaves of up to 32, untrimmed") {
-        check_hits_against_brute_force(Scene<demo::Capsule>(capsules(3000, 23), bih::Config::for_queries()), 400, 24);
+        check_hits_against_brute_force<demo::Capsule>(
+            Scene<demo::Capsule>(capsules(3000, 23), bih::Config::for_queries()), 400, 24);
     }
     SECTION("long thin capsules overlapping many leaves") {
-        check_hits_against_brute_force(Scene<demo::Capsule>(capsules(1500, 25, 0.8f, 0.02f)), 400, 26);
+        check_hits_against_brute_force<demo::Capsule>(Scene<demo::Capsule>(capsules(1500, 25, 0.8f, 0.02f)), 400, 26);
     }
 }
 
 TEST_CASE("spheres and RBFs: all hits in order and the first hit equal brute force", "[elements]") {
-    check_hits_against_brute_force(Scene<Sphere>(spheres(3000, 31)), 400, 32);
-    check_hits_against_brute_force(Scene<GaussianRbf>(rbfs(3000, 33), bih::Config::for_queries()), 400, 34);
+    check_hits_against_brute_force<Sphere>(Scene<Sphere>(spheres(3000, 31)), 400, 32);
+    check_hits_against_brute_force<GaussianRbf>(Scene<GaussianRbf>(rbfs(3000, 33), bih::Config::for_queries()), 400, 34);
+}
+
+TEST_CASE("the kd-tree and the octree over elements plug into the same kernels: hits == brute force",
+          "[elements]") {
+    check_hits_against_brute_force<demo::Capsule, KdIndex>(IndexScene<demo::Capsule, KdIndex>(capsules(3000, 35)), 400, 36);
+    check_hits_against_brute_force<demo::Capsule, KdIndex>(
+        IndexScene<demo::Capsule, KdIndex>(capsules(1500, 37, 0.8f, 0.02f)), 400, 38);
+    check_hits_against_brute_force<Sphere, KdIndex>(IndexScene<Sphere, KdIndex>(spheres(3000, 39)), 400, 40);
+    check_hits_against_brute_force<demo::Capsule, OctreeIndex>(
+        IndexScene<demo::Capsule, OctreeIndex>(capsules(3000, 41)), 400, 42);
+    check_hits_against_brute_force<Sphere, OctreeIndex>(IndexScene<Sphere, OctreeIndex>(spheres(3000, 43)), 400, 44);
+    // Same image through all three indices (same hits in the same order: bit for bit).
+    SerialExecutor exec;
+    const std::uint32_t w = 40, h = 30;
+    CameraFrame cam = view(w, h);
+    auto cs = capsules(2000, 45);
+    Scene<demo::Capsule> b(cs);
+    IndexScene<demo::Capsule, KdIndex> k(cs);
+    IndexScene<demo::Capsule, OctreeIndex> o(cs);
+    Frame fb = render_elements_cpu<demo::Capsule>(b.words, b.records, cam, w, h, exec);
+    Frame fk = render_elements_cpu<demo::Capsule, KdIndex>(k.words, k.records, cam, w, h, exec);
+    Frame fo = render_elements_cpu<demo::Capsule, OctreeIndex>(o.words, o.records, cam, w, h, exec);
+    CHECK(fb.rgba == fk.rgba);
+    CHECK(fb.rgba == fo.rgba);
 }
 
 TEST_CASE("compositing over intervals equals brute-force compositing of interact_element", "[elements]") {
@@ -232,4 +259,48 @@ TEST_CASE("more pending hits than the window holds: extra passes keep the order 
     CHECK(same_hits(got.hits, want));
     CHECK(got.passes > 1u);  // 200 pending hits, a window of 64
     CHECK(got.status == SYLVA_ITER_DONE);
+}
+
+namespace {
+/// A C++-only medium (no shared protocol): a box of constant extinction, member functions only.
+struct FogBox {
+    Aabb box;
+    float sigma = 1.0f;
+    [[nodiscard]] Aabb bounds() const { return box; }
+    [[nodiscard]] std::optional<Interval> intersect(const Ray& r, Interval i) const { return clip(r, box, i); }
+    [[nodiscard]] std::optional<Contribution> interact(const Ray& r, Interval i) const {
+        auto t = clip(r, box, i);
+        if (!t) return std::nullopt;
+        return Contribution{*t, vec3(1.0f, 0.5f, 0.25f), sigma * (t->t1 - t->t0) * glm::length(r.direction)};
+    }
+};
+}  // namespace
+
+TEST_CASE("the host integrator over interact_element equals the shared kernel, and takes C++-only media",
+          "[elements]") {
+    const std::uint32_t w = 32, h = 24;
+    CameraFrame cam = view(w, h);
+    SerialExecutor exec;
+    Scene<demo::Capsule> cs(capsules(1500, 101));
+    Frame shared_kernel = render_elements_cpu<demo::Capsule>(cs.words, cs.records, cam, w, h, exec);
+    std::vector<demo::Capsule> in_order(cs.count());
+    shared::Words rec{cs.records.data(), cs.records.size()};
+    for (std::uint32_t e = 0; e < cs.count(); ++e) sylva_elem_load(rec, e, in_order[e]);
+    std::vector<shared::SylvaHit> scratch;
+    for (std::uint32_t y = 0; y < h; ++y)
+        for (std::uint32_t x = 0; x < w; ++x) {
+            vec4 c = composite_interactions(cs.words, std::span<const demo::Capsule>(in_order), cam.ray(x, y, w, h),
+                                            Interval{}, 0.99f, scratch);
+            CHECK(c == shared_kernel.rgba[std::size_t{y} * w + x]);
+        }
+    // Two overlapping fog boxes: the nearer one composites first.
+    std::vector<FogBox> fog{{{vec3(0.0f), vec3(1.0f)}, 2.0f}, {{vec3(0.5f), vec3(2.0f)}, 1.0f}};
+    bih::Tree t = bih::build(std::span<const FogBox>(fog), bih::Config::for_queries());
+    auto words = bih::encode(t, std::span<const FogBox>(fog), bih::RangePayload{});
+    std::vector<FogBox> ordered{fog[t.order[0]], fog[t.order[1]]};
+    Ray r{{-1.0f, 0.75f, 0.75f}, {1.0f, 0.0f, 0.0f}};
+    vec4 c = composite_interactions(words, std::span<const FogBox>(ordered), r, Interval{}, 1.0f, scratch);
+    float a1 = 1.0f - std::exp(-2.0f), a2 = 1.0f - std::exp(-1.5f);
+    CHECK(c.a == Approx(a1 + (1.0f - a1) * a2).epsilon(1e-6));
+    CHECK(c.r == Approx(a1 + (1.0f - a1) * a2).epsilon(1e-6));
 }

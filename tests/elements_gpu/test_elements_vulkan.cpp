@@ -9,6 +9,8 @@
 #include <sylva/spirv/elements_rbf.h>
 #include <sylva/spirv/elements_sphere.h>
 #include <sylva/spirv/test_elements_capsule.h>
+#include <sylva/spirv/test_elements_capsule_kd.h>
+#include <sylva/spirv/test_elements_capsule_octree.h>
 #include <sylva/vulkan/elements.hpp>
 
 #include "scenes.hpp"
@@ -24,12 +26,12 @@ float max_channel_diff(vec4 a, vec4 b) {
 
 constexpr float kImageTolerance = 2e-6f;
 
-template <class E>
-void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const Scene<E>& s, std::uint32_t seed) {
+template <class E, class I = BihIndex, class S>
+void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S& s, std::uint32_t seed) {
     std::vector<Ray> rs;
     std::vector<Interval> ranges;
     rays(600, seed, rs, ranges);
-    vk::DeviceBih bih(ctx, s.words);
+    std::conditional_t<std::is_same_v<I, BihIndex>, vk::DeviceBih, vk::DeviceElementIndex> bih(ctx, s.words);
     vk::DeviceRecords recs(ctx, s.records, element_words<E>());
     vk::ElementKernel kernel(ctx, spirv);
     for (std::uint32_t max_hits : {1u, 200u}) {
@@ -37,7 +39,7 @@ void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const Sc
         REQUIRE(dev.size() == rs.size());
         std::size_t total = 0;
         for (std::size_t i = 0; i < rs.size(); ++i) {
-            auto host = element_hits_cpu<E>(s.words, s.records, rs[i], ranges[i], max_hits);
+            auto host = element_hits_cpu<E, I>(s.words, s.records, rs[i], ranges[i], max_hits);
             INFO("ray " << i << " max_hits " << max_hits);
             CHECK(dev[i].status == host.status);
             CHECK(dev[i].passes == host.passes);
@@ -79,15 +81,23 @@ void check_image(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S
 
 TEST_CASE("vulkan: capsule hit sequences equal the host's word for word", "[elements][vulkan]") {
     vk::Context ctx = vk::Context::create();
-    check_hits(ctx, spirv::test_elements_capsule, Scene<demo::Capsule>(capsules(3000, 61)), 62);
-    check_hits(ctx, spirv::test_elements_capsule,
-               Scene<demo::Capsule>(capsules(3000, 63, 0.8f, 0.02f), bih::Config::for_queries()), 64);
+    check_hits<demo::Capsule>(ctx, spirv::test_elements_capsule, Scene<demo::Capsule>(capsules(3000, 61)), 62);
+    check_hits<demo::Capsule>(ctx, spirv::test_elements_capsule,
+                              Scene<demo::Capsule>(capsules(3000, 63, 0.8f, 0.02f), bih::Config::for_queries()), 64);
+}
+
+TEST_CASE("vulkan: capsules over the kd-tree and the octree: hit sequences equal the host's", "[elements][vulkan]") {
+    vk::Context ctx = vk::Context::create();
+    check_hits<demo::Capsule, KdIndex>(ctx, spirv::test_elements_capsule_kd,
+                                       IndexScene<demo::Capsule, KdIndex>(capsules(3000, 65)), 66);
+    check_hits<demo::Capsule, OctreeIndex>(ctx, spirv::test_elements_capsule_octree,
+                                           IndexScene<demo::Capsule, OctreeIndex>(capsules(3000, 67)), 68);
 }
 
 TEST_CASE("vulkan: Sphere and GaussianRbf hit sequences equal the host's word for word", "[elements][vulkan]") {
     vk::Context ctx = vk::Context::create();
-    check_hits(ctx, spirv::elements_sphere, Scene<Sphere>(spheres(3000, 71)), 72);
-    check_hits(ctx, spirv::elements_rbf, Scene<GaussianRbf>(rbfs(3000, 73), bih::Config::for_queries()), 74);
+    check_hits<Sphere>(ctx, spirv::elements_sphere, Scene<Sphere>(spheres(3000, 71)), 72);
+    check_hits<GaussianRbf>(ctx, spirv::elements_rbf, Scene<GaussianRbf>(rbfs(3000, 73), bih::Config::for_queries()), 74);
 }
 
 TEST_CASE("vulkan: element images equal the host's within 2e-6", "[elements][vulkan]") {

@@ -5,11 +5,13 @@
 #ifndef SYLVA_RENDER_ELEMENTS_HPP
 #define SYLVA_RENDER_ELEMENTS_HPP
 
+#include <algorithm>
 #include <chrono>
 #include <concepts>
 #include <cstdint>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "sylva/core/concepts.hpp"
@@ -20,7 +22,9 @@
 #include "sylva/shared/bih_layout.h"
 #include "sylva/shared/element.h"
 #include "sylva/shared/element_bih.h"
+#include "sylva/shared/element_kd.h"
 #include "sylva/shared/element_kernels.h"
+#include "sylva/shared/element_octree.h"
 
 namespace sylva {
 
@@ -82,14 +86,26 @@ struct ElementHits {
     bool more = false;         ///< hits followed the last one kept (max_hits reached)
 };
 
-/// Throws sylva::Error unless `words` is an encoded BIH of record ranges and `records` a whole
-/// number of E's records.
-template <SharedElement E>
+/// The element indices the generic kernels take: the iterator state type of an index adapter.
+/// BIH (bih::encode with RangePayload; records in tree order, pack_elements(es, tree.order)),
+/// kd-tree (kdtree::encode_elements) and octree (octree::encode_elements) over elements
+/// (records in the caller's order, pack_elements(es)).
+using BihIndex = shared::SylvaBihIter;
+using KdIndex = shared::SylvaKdElemIter;
+using OctreeIndex = shared::SylvaOctElemIter;
+
+/// Throws sylva::Error unless `words` is an encoding the index I reads (for the BIH: of record
+/// ranges) and `records` a whole number of E's records; returns the record count.
+template <SharedElement E, class I = BihIndex>
 std::uint32_t check_element_inputs(std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
                                    const char* who) {
-    if (words.size() < SYLVA_BIH_HEADER_WORDS || words[0] != SYLVA_BIH_MAGIC)
-        throw Error(std::string(who) + ": not an encoded BIH");
-    if (((words[2] >> 8) & 255u) != SYLVA_PAYLOAD_RANGE)
+    if constexpr (std::is_same_v<I, BihIndex>) {
+        if (words.size() < SYLVA_BIH_HEADER_WORDS || words[0] != SYLVA_BIH_MAGIC)
+            throw Error(std::string(who) + ": not an encoded BIH");
+    } else if constexpr (std::is_same_v<I, KdIndex>) {
+        if (words.empty() || words[0] != SYLVA_KDE_MAGIC) throw Error(std::string(who) + ": not an encoded element kd-tree");
+    }
+    if (std::is_same_v<I, BihIndex> && ((words[2] >> 8) & 255u) != SYLVA_PAYLOAD_RANGE)
         throw Error(std::string(who) + ": the BIH's payload kind " + std::to_string((words[2] >> 8) & 255u) +
                     " is not record ranges (SYLVA_PAYLOAD_RANGE, 0)");
     if (words.size() > 0xFFFFFFFFu) throw Error(std::string(who) + ": encoding over 2^32 words");
@@ -102,18 +118,18 @@ std::uint32_t check_element_inputs(std::span<const std::uint32_t> words, std::sp
 }
 
 /// The hits of `ray` over `range` in order, at most `max_hits` of them (host, shared kernel).
-template <SharedElement E>
+template <SharedElement E, class I = BihIndex>
 ElementHits element_hits_cpu(std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
                              const Ray& ray, Interval range, std::uint32_t max_hits = 0xFFFFFFFFu) {
-    std::uint32_t elem_count = check_element_inputs<E>(words, records, "element_hits_cpu");
+    std::uint32_t elem_count = check_element_inputs<E, I>(words, records, "element_hits_cpu");
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
     shared::SylvaHitIter h;
-    shared::SylvaBihIter it;
-    shared::sylva_hits_init<E, shared::SylvaBihIter>(h, it, w, static_cast<std::uint32_t>(words.size()), elem_count,
+    I it;
+    shared::sylva_hits_init<E, I>(h, it, w, static_cast<std::uint32_t>(words.size()), elem_count,
                                                      ray.origin, ray.direction, range.t0, range.t1);
     ElementHits out;
     shared::SylvaHit hit;
-    while (shared::sylva_hits_next<E, shared::SylvaBihIter>(h, it, w, e, hit)) {
+    while (shared::sylva_hits_next<E, I>(h, it, w, e, hit)) {
         if (out.hits.size() == max_hits) {
             out.more = true;
             break;
@@ -121,18 +137,18 @@ ElementHits element_hits_cpu(std::span<const std::uint32_t> words, std::span<con
         out.hits.push_back(hit);
     }
     out.status = h.status;
-    out.steps = shared::sylva_hits_steps<E, shared::SylvaBihIter>(h, it);
+    out.steps = shared::sylva_hits_steps<E, I>(h, it);
     out.passes = h.passes;
     return out;
 }
 
 /// Renders elements front to back (sylva_elements_composite) on the host: premultiplied RGBA,
 /// steps per pixel (0xFFFFFFFF marks an index error), same arithmetic as the GPU kernel.
-template <SharedElement E, Executor X>
+template <SharedElement E, class I = BihIndex, Executor X>
 Frame render_elements_cpu(std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
                           const CameraFrame& cam, std::uint32_t width, std::uint32_t height, X& exec,
                           const ParticleRenderConfig& cfg = {}) {
-    std::uint32_t elem_count = check_element_inputs<E>(words, records, "render_elements_cpu");
+    std::uint32_t elem_count = check_element_inputs<E, I>(words, records, "render_elements_cpu");
     auto start = std::chrono::steady_clock::now();
     Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
@@ -143,7 +159,7 @@ Frame render_elements_cpu(std::span<const std::uint32_t> words, std::span<const 
                 Ray r = cam.ray(x, static_cast<std::uint32_t>(y), width, height);
                 std::uint32_t steps, status;
                 std::size_t i = y * width + x;
-                f.rgba[i] = shared::sylva_elements_composite<E, shared::SylvaBihIter>(
+                f.rgba[i] = shared::sylva_elements_composite<E, I>(
                     w, word_count, e, elem_count, r.origin, r.direction, 0.0f, shared::sylva_inf(), cfg.alpha_stop,
                     steps, status);
                 f.steps[i] = status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : steps;
@@ -152,6 +168,47 @@ Frame render_elements_cpu(std::span<const std::uint32_t> words, std::span<const 
     });
     f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return f;
+}
+
+/// Composites one ray through any RayInteraction type on the host (also C++-only types that do
+/// not use the shared protocol): `words` an encoded BIH of record ranges built over `elements`
+/// and `in_order` the elements in the tree's order (tree.order applied). Every element the ray
+/// crosses within `range` (intersect_element over the leaves), sorted by (t0, index), then
+/// interact_element over its own interval, front to back with opacity Contribution::alpha(),
+/// until `alpha_stop`. Collects the ray's hits (no window): host-only, exact order.
+template <class E>
+    requires Intersectable<E> && RayInteraction<E>
+vec4 composite_interactions(std::span<const std::uint32_t> words, std::span<const E> in_order, const Ray& ray,
+                            Interval range, float alpha_stop, std::vector<shared::SylvaHit>& scratch) {
+    shared::Words w{words.data(), words.size()};
+    shared::SylvaBihIter it;
+    shared::sylva_index_init(it, w, static_cast<std::uint32_t>(words.size()), ray.origin, ray.direction, range.t0,
+                             range.t1);
+    scratch.clear();
+    std::uint32_t first, count;
+    float t_in, t_out;
+    while (shared::sylva_index_leaf(it, w, first, count, t_in, t_out)) {
+        if (count > in_order.size() || first > in_order.size() - count)
+            throw Error("composite_interactions: a leaf addresses elements past the " +
+                        std::to_string(in_order.size()) + " given");
+        for (std::uint32_t k = first; k < first + count; ++k)
+            if (auto t = intersect_element(in_order[k], ray, range)) scratch.push_back({k, t->t0, t->t1});
+    }
+    if (it.status == SYLVA_ITER_ERROR) throw Error("composite_interactions: not an encoded BIH of record ranges");
+    std::sort(scratch.begin(), scratch.end(), [](const shared::SylvaHit& a, const shared::SylvaHit& b) {
+        return a.t0 < b.t0 || (a.t0 == b.t0 && a.elem < b.elem);
+    });
+    vec3 rgb(0.0f);
+    float alpha = 0.0f;
+    for (const auto& h : scratch) {
+        if (!(alpha < alpha_stop)) break;
+        auto c = interact_element(in_order[h.elem], ray, Interval{h.t0, h.t1});
+        if (!c) continue;
+        float k = (1.0f - alpha) * c->alpha();
+        rgb = vec3(rgb.x + k * c->rgb.x, rgb.y + k * c->rgb.y, rgb.z + k * c->rgb.z);
+        alpha = alpha + k;
+    }
+    return vec4(rgb, alpha);
 }
 
 }  // namespace sylva

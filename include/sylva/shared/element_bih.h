@@ -2,24 +2,31 @@
 // sylva/shared/element_kernels.h.
 //
 // An element index is an iterator state type I with these overloads (C++ and GLSL both resolve
-// them by I, so several indices can sit in one translation unit):
+// them by I, so several indices can sit in one translation unit); element_kd.h and
+// element_octree.h adapt the kd-tree and the octree over elements the same way:
 //
 //   void  sylva_index_init(SYLVA_OUT(I) it, SYLVA_BUF(words), uint word_count, vec3 o, vec3 d,
 //                          float t_min, float t_max);
 //   bool  sylva_index_leaf(SYLVA_INOUT(I) it, SYLVA_BUF(words), SYLVA_OUT(uint) first,
-//                          SYLVA_OUT(uint) count, SYLVA_OUT(float) t_in);
-//         The next leaf (records [first, first + count)) and the ray's entry into its box.
-//   float sylva_index_bound(SYLVA_INOUT(I) it);
-//         A lower bound on t_in of every leaf still to come (+inf when none): what makes
-//         ordering exact where leaves overlap (element_kernels.h emits a hit once no later leaf
-//         can hold an earlier one).
+//                          SYLVA_OUT(uint) count, SYLVA_OUT(float) t_in, SYLVA_OUT(float) t_out);
+//         The next leaf: its references [first, first + count) and the ray's interval in it.
+//   uint  sylva_index_element(SYLVA_INOUT(I) it, SYLVA_BUF(words), uint at);
+//         Reference `at` of the current leaf as a record index (BIH: `at` itself).
+//   bool  sylva_index_keeps(SYLVA_INOUT(I) it, float t, float t_in, float t_out);
+//         Whether the leaf with [t_in, t_out] keeps a hit entering at t: indices that list an
+//         element in several leaves keep it in one (kd-tree, octree: the leaf that claims t).
+//   float sylva_index_bound(SYLVA_INOUT(I) it, float t_out);
+//         A lower bound on the entry of every hit still to come from later leaves (+inf when
+//         none; t_out is the current leaf's end). It makes ordering exact where leaves overlap:
+//         element_kernels.h hands a hit out once everything to come starts strictly after it.
 //   void  sylva_index_clip(SYLVA_INOUT(I) it, float t);
 //         Leaves entered after t are no longer needed (a no-op is correct, only slower).
 //   uint  sylva_index_status(SYLVA_INOUT(I) it);   SYLVA_ITER_RUNNING / DONE / ERROR
 //   uint  sylva_index_steps(SYLVA_INOUT(I) it);    nodes visited (the heat map)
 //
 // The BIH's encoding must hold record ranges (payload kind SYLVA_PAYLOAD_RANGE, the default of
-// sylva::bih::encode): other kinds end the iteration with status ERROR.
+// sylva::bih::encode): other kinds end the iteration with status ERROR. Its siblings overlap, so
+// its bound is the smallest entry among the subtrees still on the traversal stack.
 #ifndef SYLVA_SHARED_ELEMENT_BIH_H
 #define SYLVA_SHARED_ELEMENT_BIH_H
 
@@ -36,21 +43,38 @@ SYLVA_FN void sylva_index_init(SYLVA_OUT(SylvaBihIter) it, SYLVA_BUF(words), uin
 }
 
 SYLVA_FN bool sylva_index_leaf(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SYLVA_OUT(uint) first,
-                               SYLVA_OUT(uint) count, SYLVA_OUT(float) t_in) {
+                               SYLVA_OUT(uint) count, SYLVA_OUT(float) t_in, SYLVA_OUT(float) t_out) {
     uint leaf;
-    float t1;
     t_in = 0.0f;
+    t_out = 0.0f;
     first = 0u;
     count = 0u;
-    if (it.status == SYLVA_ITER_ERROR || !sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t_in, t1)) return false;
+    if (it.status == SYLVA_ITER_ERROR || !sylva_bih_next(it, SYLVA_PASS_BUF(words), leaf, t_in, t_out)) return false;
     uvec2 p = sylva_bih_payload(SYLVA_PASS_BUF(words), it.hdr, leaf);
     first = p.x;
     count = p.y;
     return true;
 }
 
+/// A range leaf's references are the records themselves.
+SYLVA_FN uint sylva_index_element(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), uint at) {
+    SYLVA_UNUSED(it);
+    SYLVA_UNUSED(words);
+    return at;
+}
+
+/// Every BIH leaf keeps its hits: an element sits in one leaf.
+SYLVA_FN bool sylva_index_keeps(SYLVA_INOUT(SylvaBihIter) it, float t, float t_in, float t_out) {
+    SYLVA_UNUSED(it);
+    SYLVA_UNUSED(t);
+    SYLVA_UNUSED(t_in);
+    SYLVA_UNUSED(t_out);
+    return true;
+}
+
 /// The smallest entry among the subtrees still on the stack (and the node to visit next).
-SYLVA_FN float sylva_index_bound(SYLVA_INOUT(SylvaBihIter) it) {
+SYLVA_FN float sylva_index_bound(SYLVA_INOUT(SylvaBihIter) it, float t_out) {
+    SYLVA_UNUSED(t_out);
     float b = (it.node != SYLVA_NO_NODE) ? it.t_in : sylva_inf();
     for (uint i = 0u; i < it.sp; i++) b = sylva_min(b, SYLVA_BIH_STACK(it).st_in[i]);
     return b;

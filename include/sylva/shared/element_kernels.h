@@ -19,7 +19,7 @@
 // what starts after them (sylva_index_clip) and, once they are handed out, traverses again for
 // the hits after the last one handed out (a k-nearest-along-the-ray pass): memory stays bounded
 // and the order exact; `passes` counts the traversals.
-// Leaves that address records past elem_count end the ray with SYLVA_ITER_ERROR.
+// Element indices past elem_count end the ray with SYLVA_ITER_ERROR.
 //
 // In GLSL the window is a private global (like the BIH stack): one hit iterator per invocation.
 #ifndef SYLVA_SHARED_ELEMENT_KERNELS_H
@@ -66,7 +66,8 @@ struct SylvaHitIter {
     uint leaf_first;  ///< the current leaf's records still to test: [leaf_first + leaf_k, leaf_first + leaf_count)
     uint leaf_count;
     uint leaf_k;
-    float leaf_t_in;  ///< the current leaf's entry: a lower bound of its hits
+    float leaf_t_in;  ///< the current leaf's ray interval [leaf_t_in, leaf_t_out]
+    float leaf_t_out;
     uint count;       ///< hits in the window
     uint done;        ///< 1 once the index has no more leaves in this pass
     uint truncated;   ///< 1 when this pass dropped hits that did not fit the window
@@ -145,6 +146,7 @@ SYLVA_FN void sylva_hits_start_pass(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(Syl
     h.leaf_count = 0u;
     h.leaf_k = 0u;
     h.leaf_t_in = sylva_inf();
+    h.leaf_t_out = sylva_inf();
     h.done = 0u;
     h.truncated = 0u;
     h.passes = h.passes + 1u;
@@ -177,16 +179,22 @@ SYLVA_FN uint sylva_hits_steps(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaInd
     return h.steps_before + sylva_index_steps(it);
 }
 
-/// Tests the current leaf's next record against the ray and keeps it when hit; once the window
-/// is full, the index may skip what starts after the window's latest hit.
+/// Tests the current leaf's next element against the ray and keeps it when hit (and the leaf
+/// claims its entry); once the window is full, the index may skip what starts after the
+/// window's latest hit. An element index past the records ends the ray with ERROR.
 SYLVA_ELEM_TEMPLATE
-SYLVA_FN void sylva_hits_test_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it, SYLVA_BUF(elems)) {
-    uint e = h.leaf_first + h.leaf_k;
+SYLVA_FN void sylva_hits_test_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it, SYLVA_BUF(words),
+                                   SYLVA_BUF(elems)) {
+    uint e = sylva_index_element(it, SYLVA_PASS_BUF(words), h.leaf_first + h.leaf_k);
     h.leaf_k = h.leaf_k + 1u;
+    if (e >= h.elem_count || sylva_index_status(it) == SYLVA_ITER_ERROR) {
+        h.status = SYLVA_ITER_ERROR;
+        return;
+    }
     SylvaElem x;
     sylva_elem_load(SYLVA_PASS_BUF(elems), e, x);
     vec2 t = sylva_elem_interval(x, h.org, h.dir, h.t_min, h.t_max);
-    if (t.x <= t.y) {
+    if (t.x <= t.y && sylva_index_keeps(it, t.x, h.leaf_t_in, h.leaf_t_out)) {
         sylva_hit_insert(h, e, t.x, t.y);
         if (h.count == uint(SYLVA_HIT_WINDOW)) {
             sylva_index_clip(it, SYLVA_HIT_WINDOW_OF(h).w_t0[0]);
@@ -195,26 +203,23 @@ SYLVA_FN void sylva_hits_test_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(Sylv
     }
 }
 
-/// Fetches the next leaf; false when the pass is over or the leaf is out of range (ERROR).
+/// Fetches the next leaf; false when the pass is over (DONE or ERROR).
 SYLVA_ELEM_TEMPLATE
 SYLVA_FN bool sylva_hits_fetch_leaf(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaIndexIter) it, SYLVA_BUF(words)) {
     uint first;
     uint count;
     float t_in;
-    if (!sylva_index_leaf(it, SYLVA_PASS_BUF(words), first, count, t_in)) {
+    float t_out;
+    if (!sylva_index_leaf(it, SYLVA_PASS_BUF(words), first, count, t_in, t_out)) {
         h.done = 1u;
         h.status = sylva_index_status(it);
-        return false;
-    }
-    if (count > h.elem_count || first > h.elem_count - count) {
-        h.done = 1u;
-        h.status = SYLVA_ITER_ERROR;
         return false;
     }
     h.leaf_first = first;
     h.leaf_count = count;
     h.leaf_k = 0u;
     h.leaf_t_in = t_in;
+    h.leaf_t_out = t_out;
     return true;
 }
 
@@ -232,14 +237,14 @@ SYLVA_FN bool sylva_hits_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaInde
             // Safe once every leaf still to come starts strictly after the hit: a later leaf may
             // hold a hit at the same t with a smaller index. Dropped hits all come after it.
             float bound = leaf_left ? h.leaf_t_in : sylva_inf();
-            if (h.done == 0u) bound = sylva_min(bound, sylva_index_bound(it));
+            if (h.done == 0u) bound = sylva_min(bound, sylva_index_bound(it, h.leaf_t_out));
             if (h.done != 0u || SYLVA_HIT_WINDOW_OF(h).w_t0[h.count - 1u] < bound) {
                 sylva_hit_pop(h, hit);
                 return true;
             }
         }
         if (leaf_left) {
-            sylva_hits_test_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(elems));
+            sylva_hits_test_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems));
         } else if (h.done == 0u) {
             sylva_hits_fetch_leaf SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
         } else if (h.truncated != 0u) {

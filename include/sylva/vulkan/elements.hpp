@@ -19,6 +19,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "sylva/core/error.hpp"
@@ -62,6 +63,26 @@ private:
     std::uint32_t count_ = 0;
 };
 
+/// The encoding of an element kd-tree (kdtree::encode_elements) or element octree
+/// (octree::encode_elements) uploaded for the element kernels, split over four bindings like a
+/// DeviceBih. Their shaders pick the index with `#define SylvaIndexIter SylvaKdElemIter` (or
+/// SylvaOctElemIter) after including sylva/shared/element_kd.h (element_octree.h).
+class DeviceElementIndex {
+public:
+    DeviceElementIndex(Context& ctx, std::span<const std::uint32_t> words, std::uint32_t shift = 0)
+        : words_(split_words(ctx, words, 4, shift)), word_count_(static_cast<std::uint32_t>(words.size())) {
+        if (words.empty() || words.size() > 0xFFFFFFFFu) throw Error("vk::DeviceElementIndex: empty or too large encoding");
+    }
+    /// Specialization constants: split shift, and 1 (the BIH stack is unused).
+    [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {words_.shift, 1u}; }
+    [[nodiscard]] std::uint32_t word_count() const { return word_count_; }
+    [[nodiscard]] Buffer* part(std::size_t i) { return &words_.parts[i]; }
+
+private:
+    SplitWords words_;
+    std::uint32_t word_count_;
+};
+
 /// A user's element shader: SPIR-V of a .comp that includes element_prologue.glsl, the element
 /// header and element_main.glsl. Pipelines are made per BIH stack depth and split shift (the
 /// specialization constants) and kept.
@@ -73,7 +94,9 @@ public:
     }
 
     /// Hits of each ray over its range, in order, at most max_hits each (max_hits 1: first hit).
-    std::vector<ElementHits> hits(DeviceBih& bih, DeviceRecords& recs, std::span<const Ray> rays,
+    /// `Index` is a DeviceBih or a DeviceElementIndex, matching the shader's SylvaIndexIter.
+    template <class Index>
+    std::vector<ElementHits> hits(Index& bih, DeviceRecords& recs, std::span<const Ray> rays,
                                   std::span<const Interval> ranges, std::uint32_t max_hits) {
         check(bih, "hits");
         if (rays.size() != ranges.size()) throw Error("vk::ElementKernel::hits: rays and ranges differ in number");
@@ -120,7 +143,8 @@ public:
     }
 
     /// Front-to-back compositing of a camera image; same layout as sylva::render_elements_cpu.
-    Frame render(DeviceBih& bih, DeviceRecords& recs, const CameraFrame& cam, std::uint32_t width,
+    template <class Index>
+    Frame render(Index& bih, DeviceRecords& recs, const CameraFrame& cam, std::uint32_t width,
                  std::uint32_t height, const ParticleRenderConfig& cfg = {}) {
         check(bih, "render");
         Buffer dummy_rays(*ctx_, 32), out_buf(*ctx_, std::max<std::size_t>(std::size_t{width} * height, 1) * 6 * 4);
@@ -146,12 +170,19 @@ public:
     }
 
 private:
-    void check(const DeviceBih& bih, const char* what) const {
-        if (bih.kind() != SYLVA_PAYLOAD_RANGE)
-            throw Error(std::string("vk::ElementKernel::") + what + ": the BIH's payload kind " +
-                        std::to_string(bih.kind()) + " is not record ranges (SYLVA_PAYLOAD_RANGE, 0)");
+    template <class Index>
+    void check(const Index& bih, const char* what) const {
+        if constexpr (std::is_same_v<Index, DeviceBih>) {
+            if (bih.kind() != SYLVA_PAYLOAD_RANGE)
+                throw Error(std::string("vk::ElementKernel::") + what + ": the BIH's payload kind " +
+                            std::to_string(bih.kind()) + " is not record ranges (SYLVA_PAYLOAD_RANGE, 0)");
+        } else {
+            static_cast<void>(bih);
+            static_cast<void>(what);
+        }
     }
-    Kernel& kernel_for(DeviceBih& bih) {
+    template <class Index>
+    Kernel& kernel_for(Index& bih) {
         auto c = bih.constants();
         auto key = (std::uint64_t{c[0]} << 32) | c[1];
         auto found = kernels_.find(key);
