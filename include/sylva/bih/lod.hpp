@@ -1,11 +1,13 @@
-// sylva/bih/lod.hpp -- static levels of detail of a full voxel BIH (Kinkelin section 5.2,
+// sylva/bih/lod.hpp -- static levels of detail of a full BIH over density elements (voxel
+// cuboids or any bih::DensityElement: RBFs, particles with a density; Kinkelin section 5.2,
 // Table 3's "default LoD"), their 8-byte-node encoding (Table 1, section 5.4) and a per-node
 // min/max density word for iso-value culling (section 4.1).
 //
 // extract_lod walks the full BIH top-down. A node becomes an LoD leaf when it is a leaf of the
 // full tree, when it sits at LodConfig::max_depth, or when its element density
 // sum(V_element) / V_box is >= min_element_density and the standard deviation of its elements'
-// normalised density is <= max_std_dev. The leaf then holds one merged VoxelCuboid: the node's
+// normalised density is <= max_std_dev. The leaf then holds one merged VoxelCuboid (whatever the
+// full tree's element type: the merged representation of a node): the node's
 // enclosing box, the mean density and the mean gradient; its subtrees are discarded. Every
 // other node keeps its planes and children, so LoD boxes are exactly full-tree node boxes.
 #ifndef SYLVA_BIH_LOD_HPP

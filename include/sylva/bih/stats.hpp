@@ -32,13 +32,39 @@
 
 namespace sylva::bih {
 
-/// An element carrying a normalised density and a gradient (change of density across one voxel
-/// along x, y, z) as data members `density` and `gradient`. VoxelCuboid is one.
+namespace detail {
 template <class E>
-concept DensityElement = Bounded<E> && requires(const E& e) {
+concept HasDensityMembers = requires(const E& e) {
     { e.density } -> std::convertible_to<float>;
     { e.gradient } -> std::convertible_to<vec3>;
 };
+template <class E>
+concept HasDensityFunctions = requires(const E& e) {
+    { element_density(e) } -> std::convertible_to<float>;
+    { element_gradient(e) } -> std::convertible_to<vec3>;
+};
+}  // namespace detail
+
+/// An element carrying a normalised density and a gradient (change of density across one voxel
+/// along x, y, z): data members `density` and `gradient` (VoxelCuboid), or ADL functions
+/// `element_density(e)` and `element_gradient(e)` (any other type: an RBF sample, a particle
+/// with a mass; tests/refit/test_density.cpp uses Gaussian RBFs).
+template <class E>
+concept DensityElement = Bounded<E> && (detail::HasDensityMembers<E> || detail::HasDensityFunctions<E>);
+
+/// The density of a DensityElement, whichever way it carries it.
+template <DensityElement E>
+float density_of(const E& e) {
+    if constexpr (detail::HasDensityMembers<E>) return e.density;
+    else return element_density(e);
+}
+
+/// The gradient of a DensityElement, whichever way it carries it.
+template <DensityElement E>
+vec3 gradient_of(const E& e) {
+    if constexpr (detail::HasDensityMembers<E>) return e.gradient;
+    else return element_gradient(e);
+}
 
 /// Statistics of the elements in one node's subtree (Kinkelin section 5.2). Elements count
 /// equally (for the voxels of one grid, all of the same volume, this is the per-voxel mean).
@@ -92,8 +118,8 @@ inline vec2 reconstructed_range(float density, vec3 gradient, const Aabb& box, v
 /// Statistics of one element; throws sylva::Error naming it when density or gradient is NaN/inf.
 template <DensityElement E>
 NodeStats element_stats(const E& e, std::uint32_t index, vec3 voxel_size) {
-    float d = e.density;
-    vec3 g = e.gradient;
+    float d = density_of(e);
+    vec3 g = gradient_of(e);
     if (!std::isfinite(d) || !all_finite(g))
         throw Error("bih::node_stats: element " + std::to_string(index) + " has a non-finite density or gradient");
     Aabb box = bounds_of(e);
@@ -257,13 +283,14 @@ struct FullBih {
     [[nodiscard]] std::size_t paper_bytes() const { return tree.nodes.size() * 40u; }
 };
 
-/// Builds the full BIH over voxel cuboids (bih::build with `config`; its defaults are section
-/// 5.1's: one element per leaf, leaf boxes trimmed to the element) and right after it, in one
-/// bottom-up pass, the node boxes and statistics. Throws sylva::Error for an empty element list
-/// (e.g. no voxel reached the density threshold), NaN/inverted boxes, or NaN densities/gradients.
-template <Executor X>
-FullBih build_full(std::span<const VoxelCuboid> elements, const Config& config, X& exec) {
-    if (elements.empty()) throw Error("bih::build_full: no voxel cuboids (empty input)");
+/// Builds the full BIH over density elements (voxel cuboids, or any DensityElement: RBFs,
+/// particles with a density) with bih::build and `config` (its defaults are section 5.1's: one
+/// element per leaf, leaf boxes trimmed to the element) and right after it, in one bottom-up
+/// pass, the node boxes and statistics. Throws sylva::Error for an empty element list (e.g. no
+/// voxel reached the density threshold), NaN/inverted boxes, or NaN densities/gradients.
+template <DensityElement E, Executor X>
+FullBih build_full(std::span<const E> elements, const Config& config, X& exec) {
+    if (elements.empty()) throw Error("bih::build_full: no elements (no voxel cuboids or other density elements: empty input)");
     FullBih f;
     f.tree = build(elements, config, exec);
     auto start = std::chrono::steady_clock::now();
@@ -276,9 +303,22 @@ FullBih build_full(std::span<const VoxelCuboid> elements, const Config& config, 
 }
 
 /// build_full on the calling thread.
-inline FullBih build_full(std::span<const VoxelCuboid> elements, const Config& config = {}) {
+template <DensityElement E>
+FullBih build_full(std::span<const E> elements, const Config& config = {}) {
     SerialExecutor serial;
     return build_full(elements, config, serial);
+}
+
+/// build_full over voxel cuboids, for callers passing a container (a span is not deduced from it).
+template <Executor X>
+FullBih build_full(std::span<const VoxelCuboid> elements, const Config& config, X& exec) {
+    return build_full<VoxelCuboid, X>(elements, config, exec);
+}
+
+/// The same on the calling thread.
+inline FullBih build_full(std::span<const VoxelCuboid> elements, const Config& config = {}) {
+    SerialExecutor serial;
+    return build_full<VoxelCuboid, SerialExecutor>(elements, config, serial);
 }
 
 }  // namespace sylva::bih
