@@ -254,6 +254,9 @@ SYLVA_FN bool sylva_hits_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaInde
             return false;
         }
     }
+    // Only an ERROR leaves the loop, or a device that cut it short (lavapipe ends loops after
+    // 65,535 iterations): either way the ray is marked, never handed out short.
+    h.status = SYLVA_ITER_ERROR;
     h.count = 0u;
     return false;
 }
@@ -301,6 +304,8 @@ SYLVA_FN vec4 sylva_elements_composite(SYLVA_BUF(words), uint word_count, SYLVA_
         sylva_elem_load(SYLVA_PASS_BUF(elems), hit.elem, x);
         sylva_composite_medium(acc, sylva_elem_medium(x, o, d, hit.t0, hit.t1));
     }
+    // Still running below alpha_stop: a device cut the loop short (see sylva_hits_next).
+    if (acc.alpha < alpha_stop && h.status == SYLVA_ITER_RUNNING) h.status = SYLVA_ITER_ERROR;
     steps = sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
     status = h.status;
     return vec4(acc.rgb.x, acc.rgb.y, acc.rgb.z, acc.alpha);

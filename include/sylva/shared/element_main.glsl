@@ -38,6 +38,9 @@ void sylva_element_hits_main(uint r) {
         sylva_out_data[out_at + 6u + 3u * n] = floatBitsToUint(hit.t1);
         n = n + 1u;
     }
+    // Fewer than max_hits and still running: the device cut the loop short (lavapipe: 65,535
+    // iterations a loop); mark the ray instead of handing out a short list.
+    if (more == 0u && h.status == SYLVA_ITER_RUNNING) h.status = SYLVA_ITER_ERROR;
     sylva_out_data[out_at] = n;
     sylva_out_data[out_at + 1u] = h.status | (h.passes << 8u);
     sylva_out_data[out_at + 2u] = sylva_hits_steps(h, it);
