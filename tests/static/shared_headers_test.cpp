@@ -26,3 +26,9 @@
 #include <sylva/shared/octree_iso.h>
 #include <sylva/shared/octree_elem_iter.h>
 #include <sylva/shared/octree_particles.h>
+#include <sylva/shared/element.h>
+#include <sylva/shared/element_bih.h>
+#include <sylva/shared/element_kd.h>
+#include <sylva/shared/element_octree.h>
+#include <sylva/shared/element_kernels.h>
+#include <sylva/shared/sphere_element.h>
