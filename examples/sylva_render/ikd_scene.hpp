@@ -54,6 +54,7 @@ inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g,
     GridWords gw = GridWords::from(g);
     IsoRenderParams p;
     p.camera = vp.camera;
+    p.rays = vp.rays;  // --camera
     p.width = o.width;
     p.height = o.height;
     p.isos = ikd_detail::surfaces(o);

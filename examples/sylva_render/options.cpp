@@ -31,8 +31,11 @@ const char* usage() {
            "                    [--frames-out DIR] [--orbit] [--feedback on|off]; --volume STORE (a brick\n"
            "                    store directory made by sylva-store build) always renders out of core\n"
            "                    (32 frames unless --frames; --brick is the store's)\n"
-           "timing (volumes):   [--repeat N] renders N frames and reports the fastest (warm caches,\n"
-           "                    pipelines compiled)\n"
+           "timing (volumes):   [--repeat N] renders N frames and reports the fastest and the median\n"
+           "                    (warm caches, pipelines compiled; JSON ms_min, ms_median, frame_ms)\n"
+           "camera (volumes):   [--camera pinhole|ortho] pinhole (default) or orthographic rays framing\n"
+           "                    the volume from --view (ortho: a view rectangle as high as the volume's\n"
+           "                    bounding sphere, rays along the view direction)\n"
            "--index kd-vidal|kd-binned renders the reference marcher with empty-space skipping by a\n"
            "kd-tree (Vidal et al.; Zellmann et al.): the same image, fewer samples.\n"
            "--index implicit-kd renders exact isosurfaces of up to 4 --iso values over Wald et al.'s\n"
@@ -171,6 +174,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--steps") o.steps = static_cast<std::uint32_t>(number(a, value(), 1, 1 << 16));
         else if (a == "--shading") o.shading = true;
         else if (a == "--backend") o.backend = one_of(a, value(), {"cpu", "vulkan"});
+        else if (a == "--camera") o.camera = one_of(a, value(), {"pinhole", "ortho"});
         else if (a == "--size") parse_size(value(), o);
         else if (a == "-o" || a == "--output") o.output = value();
         else if (a == "--stats-json") o.stats_json = value();
@@ -229,6 +233,10 @@ Options parse(int argc, char** argv) {
     if (o.ikd_index() && o.mode == "dvr")
         throw std::invalid_argument("--index " + o.index + " renders isosurfaces (--mode iso), not --mode dvr");
     if (o.ikd_index()) o.mode = "iso";
+    if (o.camera == "ortho" && (!o.volume_input() || o.out_of_core()))
+        throw std::invalid_argument("--camera ortho renders in-core volumes (not particles or out-of-core octrees)");
+    if (o.camera == "ortho" && !o.boxes.empty())
+        throw std::invalid_argument("--boxes projects with the pinhole camera; drop it with --camera ortho");
     if (o.isos.size() > 1 && !o.ikd_index())
         throw std::invalid_argument("several --iso values need --index implicit-kd or dda");
     if (o.octree_index() && o.volume_input() && o.mode.empty()) o.mode = "dvr";

@@ -45,6 +45,7 @@ struct Options {
     std::uint32_t steps = 1024;      ///< --steps N: samples along the longest axis (reference marcher, multi)
     bool shading = false;            ///< --shading: Lambert shading from the gradient
     std::string backend = "cpu";     ///< --backend cpu|vulkan
+    std::string camera = "pinhole";  ///< --camera pinhole|ortho: the volume renderers' primary rays
     std::uint32_t width = 960, height = 720;
     std::string output;              ///< -o OUT.png|OUT.exr
     std::string stats_json;          ///< --stats-json FILE

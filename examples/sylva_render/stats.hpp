@@ -15,6 +15,13 @@
 
 namespace sylva_render {
 
+/// The frame times (ms) of the last best_of, in render order: Stats::frame_ms (--repeat's
+/// median and minimum).
+inline std::vector<double>& repeat_frame_ms() {
+    static std::vector<double> times;
+    return times;
+}
+
 struct Stats {
     std::string index = "bih", backend, device, input;
     std::size_t elements = 0, nodes = 0, leaves = 0, bytes = 0, errors = 0;
@@ -22,6 +29,10 @@ struct Stats {
     double build_ms = 0, encode_ms = 0, render_ms = 0, rays_per_s = 0, single_child_percent = 0, steps_mean = 0;
     std::uint32_t steps_max = 0;
     std::uint32_t repeat = 1;  ///< frames rendered (--repeat); the figures are the fastest one's
+    /// Every --repeat frame's time in render order (ms): the JSON's frame_ms, ms_min, ms_median
+    /// (best_of's record, taken by fill_frame; empty: render_ms alone).
+    std::vector<double> frame_ms;
+    std::string camera = "pinhole";  ///< --camera pinhole|ortho
     std::size_t visible_pixels = 0;  ///< pixels with alpha >= 1/255 (what an 8-bit image shows)
     /// Volume runs: Kinkelin Table 3's rows for what was built (empty for particles).
     struct VolumeRows {
@@ -118,6 +129,11 @@ struct Stats {
         height = f.height;
         render_ms = f.ms;
         rays_per_s = f.ms > 0 ? static_cast<double>(f.rgba.size()) / (f.ms / 1000.0) : 0.0;
+        const std::vector<double>& times = repeat_frame_ms();  // best_of's frames, f the fastest
+        if (!times.empty() && *std::min_element(times.begin(), times.end()) == f.ms) {
+            frame_ms = times;
+            repeat = static_cast<std::uint32_t>(times.size());
+        }
         double sum = 0;
         for (std::uint32_t s : f.steps) {
             if (s == 0xFFFFFFFFu) {
@@ -141,7 +157,10 @@ struct Stats {
            << " elements/s), encode " << encode_ms << " ms\n"
            << "render           " << backend << " on " << device << ": " << width << "x" << height << " in "
            << render_ms << " ms, " << rays_per_s << " rays/s"
-           << (repeat > 1 ? " (fastest of " + std::to_string(repeat) + " frames)" : std::string()) << "\n"
+           << (repeat > 1 ? " (fastest of " + std::to_string(repeat) + " frames; median " + std::to_string(ms_median()) +
+                                " ms, " + std::to_string(rays_per_s_median()) + " rays/s)"
+                          : std::string())
+           << ", " << camera << " camera\n"
            << "iterator steps   mean " << steps_mean << ", max " << steps_max << "\n";
         if (volume.present) print_volume(os);
         if (kd.present) print_kd(os);
@@ -238,6 +257,28 @@ struct Stats {
                << "), render " << r.render_ms << " ms\n";
     }
 
+    /// The fastest and the median of the --repeat frames (an even count: the mean of the middle
+    /// two); render_ms when no frame times were recorded.
+    [[nodiscard]] double ms_min() const {
+        return frame_ms.empty() ? render_ms : *std::min_element(frame_ms.begin(), frame_ms.end());
+    }
+    [[nodiscard]] double ms_median() const {
+        if (frame_ms.empty()) return render_ms;
+        std::vector<double> t = frame_ms;
+        std::sort(t.begin(), t.end());
+        std::size_t n = t.size();
+        return n % 2 == 1 ? t[n / 2] : 0.5 * (t[n / 2 - 1] + t[n / 2]);
+    }
+    [[nodiscard]] double rays_per_s_median() const {
+        double ms = ms_median();
+        return ms > 0.0 ? static_cast<double>(width) * height / (ms / 1000.0) : 0.0;
+    }
+    [[nodiscard]] std::string frame_ms_json() const {
+        std::string s = "[";
+        for (std::size_t i = 0; i < frame_ms.size(); ++i) s += (i ? ", " : "") + std::to_string(frame_ms[i]);
+        return s + "]";
+    }
+
     static std::string quoted(const std::string& s) {
         std::string out = "\"";
         for (char c : s) {
@@ -256,7 +297,9 @@ struct Stats {
             << ", \"single_child_percent\": " << single_child_percent << ", \"bytes\": " << bytes
             << ", \"build_ms\": " << build_ms << ", \"encode_ms\": " << encode_ms << ", \"render_ms\": " << render_ms
             << ", \"rays_per_s\": " << rays_per_s << ", \"width\": " << width << ", \"height\": " << height
-            << ", \"repeat\": " << repeat << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max
+            << ", \"repeat\": " << repeat << ", \"ms_min\": " << ms_min() << ", \"ms_median\": " << ms_median()
+            << ", \"rays_per_s_median\": " << rays_per_s_median() << ", \"frame_ms\": " << frame_ms_json()
+            << ", \"camera\": " << quoted(camera) << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max
             << ", \"visible_pixels\": " << visible_pixels << ", \"errors\": " << errors;
         if (volume.present) {
             const VolumeRows& v = volume;
@@ -335,12 +378,16 @@ struct Stats {
 };
 
 /// Runs `frame()` n times (at least once) and returns the fastest frame: timings of warm
-/// runs (caches filled, Vulkan pipelines compiled on the first dispatch).
+/// runs (caches filled, Vulkan pipelines compiled on the first dispatch). Every frame's time
+/// goes to repeat_frame_ms().
 template <class F>
 sylva::Frame best_of(std::uint32_t n, F&& frame) {
+    repeat_frame_ms().clear();
     sylva::Frame best = frame();
+    repeat_frame_ms().push_back(best.ms);
     for (std::uint32_t i = 1; i < n; ++i) {
         sylva::Frame f = frame();
+        repeat_frame_ms().push_back(f.ms);
         if (f.ms < best.ms) best = std::move(f);
     }
     return best;

@@ -85,7 +85,12 @@ VolumeRenderParams render_params(const Options& o, const volume::DensityGrid& g)
     vec3 from = o.view ? vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : vec3(0.4f, 0.3f, 1.0f);
     p.width = o.width;
     p.height = o.height;
-    p.camera = Camera::framing(g.world_box(), from).frame(o.width, o.height);
+    Camera cam = Camera::framing(g.world_box(), from);
+    p.camera = cam.frame(o.width, o.height);
+    if (o.camera == "ortho") {  // the same eye and view direction, a rectangle as high as the bounding sphere
+        p.camera = cam.ortho_frame(o.width, o.height, 0.5f * glm::length(g.world_box().extent()));
+        p.rays.source = RaySource::Ortho;
+    }
     volume::TransferFunction tf = transfer_function(o);
     if (!tf.any_opaque()) throw Error("the transfer function has no opaque entry: nothing would be visible");
     p.tf = tf.packed_rgba8();
@@ -229,6 +234,7 @@ int run_volume(const Options& o) {
     s.backend = o.backend;
     s.index = o.index;
     s.repeat = o.repeat;
+    s.camera = o.camera;
     if (o.octree_index() && is_store_path(o.volume)) return run_store_volume(o, s);  // out of core from disk
     ThreadPool pool(o.threads);
     volume::DensityGrid g = load_grid(o, pool, s);
