@@ -386,3 +386,21 @@ foreach(run still animate)
 endforeach()
 sylva_render_test(kd_volume RC 2 ERR "--index kd renders particles"
   ARGS --index kd --volume procedural -o ${_out}/x.png)
+
+# --camera ortho (issue 17) on both backends and through the kd-tree, --repeat's median and
+# minimum in the stats JSON; ortho is refused where the pinhole is the only camera.
+foreach(backend cpu vulkan)
+  if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+    continue()
+  endif()
+  foreach(index none kd-vidal)
+    sylva_render_test(camera_ortho_${index}_${backend} KEYS_ONLY
+      ARGS --volume procedural --index ${index} --backend ${backend} --camera ortho --repeat 3 --size 64x48 --quiet
+           -o ${_out}/ortho_${index}_${backend}.png --stats-json ${_out}/ortho_${index}_${backend}.json
+      FILES ${_out}/ortho_${index}_${backend}.png JSON ${_out}/ortho_${index}_${backend}.json
+      EXTRA_KEYS ms_min ms_median rays_per_s_median frame_ms camera
+      JSON_EQUAL camera=ortho repeat=3 JSON_MIN visible_pixels=100 frame_ms.2=0 ms_median=0)
+  endforeach()
+endforeach()
+sylva_render_test(camera_ortho_particles RC 2 ERR "--camera ortho renders in-core volumes"
+  ARGS --count 1000 --camera ortho -o ${_out}/x.png)
