@@ -27,6 +27,7 @@
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
 #include "sylva/volume/grid.hpp"
+#include "sylva/volume/occupancy.hpp"
 #include "sylva/volume/procedural.hpp"
 #include "sylva/volume/read_raw.hpp"
 #include "sylva/volume/resample.hpp"
@@ -148,11 +149,10 @@ public:
         if (slab_.bytes.empty()) slab_ = slab_volume();
         read_bytes(std::uint64_t(z) * slab_.bytes.size(), slab_.bytes);
         check_finite(slab_, std::uint64_t(z) * slab_.voxels());
-        // volume::normalize's arithmetic, without its per-call allocation:
-        // clamp((x - lo) * inv, 0, 1) with inv = 1 / (hi - lo), or 0 for an empty span.
+        // volume::normalize's arithmetic, without its per-call allocation: clamp((x - lo) / span,
+        // 0, 1), or 0 for an empty span (the classifiers' volume::detail::normalised).
         const float lo = slab_.range_lo, span = slab_.range_hi - slab_.range_lo;
-        const float inv = span > 0.0f ? 1.0f / span : 0.0f;
-        for (std::size_t i = 0; i < out.size(); ++i) out[i] = glm::clamp((slab_.value(i) - lo) * inv, 0.0f, 1.0f);
+        for (std::size_t i = 0; i < out.size(); ++i) out[i] = volume::detail::normalised(slab_.value(i), lo, span);
     }
     [[nodiscard]] std::string voxel_type() const override { return volume::scalar_name(info_.type); }
     [[nodiscard]] float range_lo() const override { return lo_; }
