@@ -16,6 +16,9 @@
 #include "harness/octree.hpp"
 #include "harness/readers.hpp"
 #include "harness/structures.hpp"
+#if SYLVA_FUZZ_REPLAY_STORE
+#include "harness/store.hpp"
+#endif
 
 namespace {
 
@@ -37,6 +40,10 @@ const std::map<std::string, Harness>& harnesses() {
         {"ikd", sylva_fuzz::fuzz_ikd},
         {"octree", sylva_fuzz::fuzz_octree},
         {"octree_elements", sylva_fuzz::fuzz_octree_elements},
+#if SYLVA_FUZZ_REPLAY_STORE
+        {"store_brick", sylva_fuzz::fuzz_store_brick},
+        {"store_build_info", sylva_fuzz::fuzz_store_build_info},
+#endif
     };
     return all;
 }

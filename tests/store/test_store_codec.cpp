@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <sylva/store/codec.hpp>
+#include <sylva/store/format.hpp>
 
 using namespace sylva::store;
 
@@ -83,4 +84,26 @@ TEST_CASE("codec names", "[store]") {
     CHECK(codec_from_name("lz4") == Codec::lz4);
     CHECK(codec_from_name("none") == Codec::none);
     CHECK_THROWS_WITH(codec_from_name("lzo"), Catch::Contains("unknown codec 'lzo'"));
+}
+
+TEST_CASE("the build record refuses zstd levels outside -5 .. 19 (fuzz_store_build_info)", "[store][fuzz]") {
+    // "level=-2147483648" used to negate INT_MIN (undefined behaviour, found by
+    // fuzz_store_build_info; input in tests/fuzz_regressions/store_build_info/).
+    using namespace sylva::store;
+    BuildInfo b;
+    b.input = "procedural:ml:64";
+    b.dims = sylva::volume::Dims(64u);
+    std::string good = to_text(b);
+    REQUIRE(build_info_from_text(good) == b);
+    for (const char* level : {"-5", "19", "-1"}) {
+        std::string t = good;
+        t.replace(t.find("level=1"), 7, std::string("level=") + level);
+        CHECK(build_info_from_text(t).level == std::stoi(level));
+    }
+    for (const char* level : {"-2147483648", "2147483648", "20", "-20", "4294967295"}) {
+        std::string t = good;
+        t.replace(t.find("level=1"), 7, std::string("level=") + level);
+        INFO(level);
+        CHECK_THROWS_AS(build_info_from_text(t), sylva::Error);
+    }
 }

@@ -144,8 +144,11 @@ inline BuildInfo build_info_from_text(std::string_view text) {
         else if (k == "codec") b.codec = codec_from_name(v), seen |= 1024;
         else if (k == "level") {
             bool negative = !v.empty() && v.front() == '-';
-            int magnitude = int(parse_u32(negative ? v.substr(1) : v, "level"));
-            b.level = negative ? -magnitude : magnitude;
+            std::uint32_t magnitude = parse_u32(negative ? v.substr(1) : v, "level");
+            // -5 .. 19 is what builds write; larger magnitudes are refused before the sign is
+            // applied (fuzz_store_build_info: "level=-2147483648" negated INT_MIN).
+            if (magnitude > 19u) throw Error("store: build info: level " + std::string(v) + " is outside -5 .. 19");
+            b.level = negative ? -int(magnitude) : int(magnitude);
             seen |= 2048;
         }
     }
