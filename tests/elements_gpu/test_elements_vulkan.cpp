@@ -5,6 +5,8 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 #include <sylva/spirv/elements_rbf.h>
 #include <sylva/spirv/elements_sphere.h>
@@ -147,4 +149,28 @@ TEST_CASE("vulkan: 70,000 coincident capsules: the device equals the host or mar
     WARN("70,000 tests in one call on " << ctx.device_name() << ": status " << dev[0].status);
     CHECK(dev[1].hits.empty());  // the miss is unaffected
     CHECK(dev[1].status == SYLVA_ITER_DONE);
+}
+
+TEST_CASE("vulkan: without transcendentals (opaque capsules: tau = +inf, no exp) images are bit-identical",
+          "[elements][vulkan]") {
+    auto cs = capsules(2000, 85);
+    for (auto& c : cs) c.extinction = std::numeric_limits<float>::infinity();
+    Scene<demo::Capsule> s(cs);
+    const std::uint32_t w = 64, h = 48;
+    CameraFrame cam = view(w, h);
+    SerialExecutor exec;
+    vk::Context ctx = vk::Context::create();
+    vk::DeviceBih bih(ctx, s.words);
+    vk::DeviceRecords recs(ctx, s.records, element_words<demo::Capsule>());
+    vk::ElementKernel kernel(ctx, spirv::test_elements_capsule);
+    Frame host = render_elements_cpu<demo::Capsule>(s.words, s.records, cam, w, h, exec);
+    Frame dev = kernel.render(bih, recs, cam, w, h);
+    std::size_t covered = 0, same = 0;
+    for (std::size_t i = 0; i < host.rgba.size(); ++i) {
+        same += std::memcmp(&host.rgba[i], &dev.rgba[i], sizeof(vec4)) == 0 ? 1 : 0;
+        covered += host.rgba[i].a == 1.0f ? 1 : 0;
+        CHECK(dev.steps[i] == host.steps[i]);
+    }
+    CHECK(same == host.rgba.size());
+    CHECK(covered > host.rgba.size() / 4);
 }
