@@ -121,6 +121,7 @@ SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres
     bs.push_back({[&] { return time_sylva_build(idx.leaf4_tree, spheres, TreeKind::Leaf4, c.pool); }});
     bs.push_back({[&] { return time_sylva_build(idx.query_tree, spheres, TreeKind::Query, c.pool); }});
     bs.push_back({[&] { return time_octree_build(idx.octree_tree, spheres, c.pool); }});
+    bs.push_back({[&] { return time_kd_build(idx.kd_tree, spheres, c.pool); }});
 #if SYLVA_BENCH_EMBREE
     bs.push_back({[&] {
         EmbreePeer::BuildTimes t = c.embree->build(spheres);
@@ -134,7 +135,8 @@ SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres
     record_sylva_build(c.report, build + "/leaf4", build, bs[1].ms, idx.leaf4_tree, "fixed16-leaf4");
     record_sylva_build(c.report, build + "/query", build, bs[2].ms, idx.query_tree, "fixed16-query");
     record_octree_build(c.report, build + "/octree", build, bs[3].ms, idx.octree_tree);
-    if (bs.size() > 4) record_embree_build(c, bs[4], setup, spheres.size(), build);
+    record_kd_build(c.report, build + "/kd", build, bs[4].ms, idx.kd_tree);
+    if (bs.size() > 5) record_embree_build(c, bs[5], setup, spheres.size(), build);
     bench_sylva_encode(idx, spheres, c.opt, c.report, label, c.pool);
     // The wide tree's whole build: the leaf4 BIH it collapses plus the collapse (medians).
     double wide_ms = median(bs[1].ms) + median(idx.wide_ms);

@@ -9,7 +9,9 @@
 #include <sylva/bih/encode.hpp>
 #include <sylva/bih/payload.hpp>
 #include <sylva/bih/query.hpp>
+#include <sylva/kdtree/elements_encode.hpp>
 #include <sylva/octree/elements_encode.hpp>
+#include <sylva/shared/kd_elem_iter.h>
 #include <sylva/shared/octree_elem_iter.h>
 
 namespace bench {
@@ -70,6 +72,33 @@ TraversalCost octree_cost(const std::vector<std::uint32_t>& words, const std::ve
     return {steps / n, leaves / n};
 }
 
+/// The element kd-tree's nodes visited and leaves with references per ray (first hit: ending
+/// where kdtree::first_hit's answer becomes final).
+TraversalCost kd_cost(const std::vector<std::uint32_t>& words, const std::vector<Sphere>& spheres,
+                      std::span<const sylva::Ray> rays, bool first) {
+    namespace sh = sylva::shared;
+    sh::Words w{words.data(), words.size()};
+    double steps = 0.0, leaves = 0.0;
+    for (const sylva::Ray& ray : rays) {
+        sh::SylvaKdElemIter it;
+        sh::sylva_kde_init(it, w, static_cast<std::uint32_t>(words.size()), ray.origin, ray.direction, 0.0f, sh::sylva_inf());
+        std::uint32_t node, at, count;
+        float t0, t1, best = std::numeric_limits<float>::infinity();
+        while (sh::sylva_kde_next(it, w, node, t0, t1, at, count)) {
+            leaves += 1.0;
+            if (!first) continue;
+            for (std::uint32_t k = 0; k < count; ++k) {
+                auto t = sylva::intersect_element(spheres[words[at + k]], ray, sylva::Interval{});
+                if (t && t->t0 < best) best = t->t0;
+            }
+            if (best < t1) break;
+        }
+        steps += it.steps;
+    }
+    double n = static_cast<double>(std::max<std::size_t>(rays.size(), 1));
+    return {steps / n, leaves / n};
+}
+
 }  // namespace
 
 void describe_configs(Report& report) {
@@ -87,6 +116,28 @@ void describe_configs(Report& report) {
                               "neighbour pointers, straddling references, leaves of 8, max_growth 3) over the spheres "
                               "in their order; octree::encode_elements; octree::first_hit / all_hits(words, spheres) "
                               "(the stackless neighbour-pointer walk of sylva/shared/octree_elem_iter.h)");
+    report.describe("kd", "kdtree::build_elements(spheres, ElementConfig{}) (issue 14: binned SAH, 32 bins, straddling "
+                          "references, leaves of <= 8 or where the SAH stops) over the spheres in their order; "
+                          "kdtree::encode_elements; kdtree::first_hit / all_hits(words, spheres) (the stack walk of "
+                          "sylva/shared/kd_elem_iter.h, exact order by claims)");
+}
+
+double time_kd_build(sylva::kdtree::ElementTree& out, const std::vector<Sphere>& spheres, sylva::ThreadPool& pool) {
+    out = {};
+    return time_ms([&] { out = sylva::kdtree::build_elements(std::span<const Sphere>(spheres), {}, pool); });
+}
+
+void record_kd_build(Report& report, const std::string& name, const std::string& peer, const std::vector<double>& ms,
+                     const sylva::kdtree::ElementTree& tree) {
+    double b = median(ms);
+    double n = static_cast<double>(tree.element_count);
+    report.add(name, "sylva", "build_ms", b, "ms", peer, "kd");
+    report.add(name, "sylva", "build_elements_per_s", per_s(n, b), "elements/s", peer, "kd");
+    report.add(name, "sylva", "runs", static_cast<double>(ms.size()), "runs", peer, "kd");
+    report.add(name, "sylva", "nodes", static_cast<double>(tree.nodes.size()), "nodes", "", "kd");
+    report.add(name, "sylva", "max_depth", static_cast<double>(tree.depth), "levels", "", "kd");
+    report.add(name, "sylva", "references_per_element", static_cast<double>(tree.refs.size()) / std::max(n, 1.0), "refs",
+               "", "kd");
 }
 
 double time_octree_build(sylva::octree::ElementTree& out, const std::vector<Sphere>& spheres, sylva::ThreadPool& pool) {
@@ -169,6 +220,12 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
     });
     report.add(enc + "/octree", "sylva", "encode_ms", median(oct_ms), "ms", "", "octree");
     report.add(build + "/octree", "sylva", "bytes", static_cast<double>(idx.octree.size() * 4), "bytes", build, "octree");
+    auto kd_ms = samples(opt.runs, opt.encode_budget_ms(), [&] {
+        idx.kd = {};
+        return time_ms([&] { idx.kd = sylva::kdtree::encode_elements(idx.kd_tree); });
+    });
+    report.add(enc + "/kd", "sylva", "encode_ms", median(kd_ms), "ms", "", "kd");
+    report.add(build + "/kd", "sylva", "bytes", static_cast<double>(idx.kd.size() * 4), "bytes", build, "kd");
     report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build, "fixed16");
     report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build,
                "fixed16-leaf4");
@@ -182,7 +239,8 @@ std::vector<Variant> variants(const SylvaIndex& idx) {
             {"fixed16-leaf4", &idx.leaf4_tree, &idx.leaf4},
             {"fixed16-query", &idx.query_tree, &idx.query, &idx.query_records},
             {"wide", &idx.leaf4_tree, &idx.leaf4, nullptr, &idx.wide},
-            {"octree", nullptr, &idx.octree, nullptr, nullptr, true}};
+            {"octree", nullptr, &idx.octree, nullptr, nullptr, true},
+            {"kd", nullptr, &idx.kd, nullptr, nullptr, false, true}};
 }
 
 FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
@@ -192,7 +250,8 @@ FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres,
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         for (std::size_t i = lo; i < hi; ++i) {
-            auto h = v.element_octree ? sylva::octree::first_hit(w, es, rays[i])
+            auto h = v.element_kd       ? sylva::kdtree::first_hit(w, es, rays[i])
+                     : v.element_octree ? sylva::octree::first_hit(w, es, rays[i])
                      : v.wide         ? bih::first_hit(*v.wide, rays[i])
                      : v.records      ? bih::first_hit(w, *v.records, rays[i])
                                       : bih::first_hit(w, *v.tree, es, rays[i]);
@@ -210,7 +269,9 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         std::vector<bih::ElementHit> hits;
         for (std::size_t i = lo; i < hi; ++i) {
-            if (v.element_octree)
+            if (v.element_kd)
+                sylva::kdtree::all_hits(w, es, rays[i], hits);
+            else if (v.element_octree)
                 sylva::octree::all_hits(w, es, rays[i], hits);
             else if (v.wide)
                 bih::all_hits(*v.wide, rays[i], hits);
@@ -230,7 +291,9 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
 HitList sylva_hit_list(const Variant& v, const std::vector<Sphere>& spheres) {
     return [v, &spheres](const sylva::Ray& ray) {
         std::vector<bih::ElementHit> hits;
-        if (v.element_octree)
+        if (v.element_kd)
+            sylva::kdtree::all_hits(std::span<const std::uint32_t>(*v.words), std::span<const Sphere>(spheres), ray, hits);
+        else if (v.element_octree)
             sylva::octree::all_hits(std::span<const std::uint32_t>(*v.words), std::span<const Sphere>(spheres), ray, hits);
         else if (v.wide)
             bih::all_hits(*v.wide, ray, hits);
@@ -258,6 +321,7 @@ TraversalCost sylva_cost(const Variant& v, const std::vector<Sphere>& spheres, s
         return {steps / n, leaves / n};
     }
     if (v.element_octree) return octree_cost(*v.words, spheres, rays, first);
+    if (v.element_kd) return kd_cost(*v.words, spheres, rays, first);
     for (const sylva::Ray& ray : rays) {
         bih::LeafIterator it(std::span<const std::uint32_t>(*v.words), ray);
         float best = std::numeric_limits<float>::infinity();

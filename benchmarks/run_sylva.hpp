@@ -11,6 +11,7 @@
 #include <sylva/bih/tree.hpp>
 #include <sylva/bih/wide.hpp>
 #include <sylva/core/executor.hpp>
+#include <sylva/kdtree/elements.hpp>
 #include <sylva/octree/elements.hpp>
 
 #include "bench.hpp"
@@ -33,6 +34,8 @@ struct SylvaIndex {
     std::vector<double> wide_ms;               ///< the collapse's timed runs
     sylva::octree::ElementTree octree_tree;    ///< the element octree (octree::ElementConfig{}), spheres in order
     std::vector<std::uint32_t> octree;         ///< its encoding (octree::encode_elements)
+    sylva::kdtree::ElementTree kd_tree;        ///< the element kd-tree (kdtree::ElementConfig{}), spheres in order
+    std::vector<std::uint32_t> kd;             ///< its encoding (kdtree::encode_elements)
 };
 
 /// One encoding the traversal cases run: its name in case names, its tree and words, and the
@@ -44,6 +47,7 @@ struct Variant {
     const sylva::bih::LeafRecords<sylva::Sphere>* records = nullptr;
     const sylva::bih::WideTree<sylva::Sphere>* wide = nullptr;  ///< queries run on this when set
     bool element_octree = false;  ///< `words` is an element octree (octree::first_hit / all_hits)
+    bool element_kd = false;      ///< `words` is an element kd-tree (kdtree::first_hit / all_hits)
 };
 /// fixed16 and float32 of the default tree, fixed16-leaf4, fixed16-query, wide, then the
 /// element octree ("octree").
@@ -61,6 +65,11 @@ double time_sylva_build(sylva::bih::Tree& out, const std::vector<sylva::Sphere>&
 /// One timed octree::build_elements (ElementConfig{}) into `out`; ms.
 double time_octree_build(sylva::octree::ElementTree& out, const std::vector<sylva::Sphere>& spheres,
                          sylva::ThreadPool& pool);
+/// One timed kdtree::build_elements (ElementConfig{}) into `out`; ms.
+double time_kd_build(sylva::kdtree::ElementTree& out, const std::vector<sylva::Sphere>& spheres, sylva::ThreadPool& pool);
+/// Records the element kd-tree's median build time, elements/s, runs and shape under `name`.
+void record_kd_build(Report& report, const std::string& name, const std::string& peer, const std::vector<double>& ms,
+                     const sylva::kdtree::ElementTree& tree);
 /// Records the element octree's median build time, elements/s, runs and shape (nodes, levels,
 /// references per sphere) under `name`.
 void record_octree_build(Report& report, const std::string& name, const std::string& peer,

@@ -9,7 +9,8 @@
 // named in the case names and described under the tables and in the JSON ("config"): the
 // paper's trimmed one-sphere leaves (fixed16, float32), 4 spheres a leaf (leaf4), and the
 // query tree (bih::Config::for_queries(), elements in leaf order via bih::LeafRecords), and the
-// element octree ("octree": octree::build_elements with its defaults, issue 12). --pass-seconds caps the rays and runs of the
+// element octree ("octree": octree::build_elements with its defaults, issue 12), and the element kd-tree ("kd": binned
+// SAH, issue 14; moving spheres: sylva-moving-bench). --pass-seconds caps the rays and runs of the
 // slow cases so that the default run stays near five minutes on two cores.
 // Traversal results are cross-checked ray by ray against Embree (or, without it, the two node
 // formats against each other); a disagreement that is not a grazed sphere or a tie, or more
