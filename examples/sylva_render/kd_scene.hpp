@@ -82,7 +82,7 @@ public:
             dev_.rebuilder.reset();
 #endif
             host_.reset();
-            codes_.emplace(ess_codes(grid_, cls.entries(), pool_));
+            codes_.emplace(ess_codes(grid_, cls.entries(), pool_, o_.border == "clamp" ? GridBorder::clamp() : GridBorder{}));
             codes_ms_ = codes_->ms;
 #ifdef SYLVA_RENDER_VULKAN
             if (on_device()) dev_.rebuilder.emplace(*dev_.ctx, codes_->volume, cfg_, pool_);
@@ -204,7 +204,7 @@ inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, 
                          sylva::ThreadPool& pool, Stats& s) {
     using namespace sylva;
     using namespace kd_detail;
-    GridWords gw = GridWords::from(g);
+    GridWords gw = render_grid(o, g, s);  // --grid native: 1 byte a voxel for uint8 data
     Device dev;
     if (o.backend == "vulkan") {
 #ifdef SYLVA_RENDER_VULKAN
@@ -223,6 +223,7 @@ inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, 
     std::vector<std::uint32_t> words = kdtree::encode(t);
     s.encode_ms = ms_since(t0);
     fill_stats(o, g, t, words.size() * 4, builder, s);
+    s.volume.index_bytes = words.size() * 4;
     Stats::VolumeRows& v = s.volume;
     v.present = true;
     v.mode = "dvr, reference marcher with empty-space skipping (" + o.index + ", " + o.kd + ")";

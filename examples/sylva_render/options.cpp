@@ -18,6 +18,7 @@ const char* usage() {
            "                    [--chunk-depth D] [--empty-children trim-both|infinite]\n"
            "volumes:            [--mode dvr|iso] [--dvr single|multi] [--tf FILE | --tf-preset ct|ramp]\n"
            "                    [--range auto|type|LO,HI] [--threshold D] [--resample F] [--spacing X,Y,Z]\n"
+           "                    [--border clamp|zero] [--grid native|float32]\n"
            "                    [--lod-density F] [--lod-stddev F] [--lod-depth N] [--iso V[,V2,...]]\n"
            "                    [--iso-cull on|off] [--steps N] [--shading] [--opacity A] [--alpha-stop A]\n"
            "kd-trees (volumes): [--kd shallow|deep] [--kd-classify alpha|threshold] [--boxes FILE]\n"
@@ -162,6 +163,8 @@ Options parse(int argc, char** argv) {
         else if (a == "--tf") o.tf = value();
         else if (a == "--tf-preset") o.tf_preset = one_of(a, value(), {"ct", "ramp"});
         else if (a == "--threshold") o.threshold = static_cast<float>(number(a, value(), 0, 1));
+        else if (a == "--border") o.border = one_of(a, value(), {"clamp", "zero"});
+        else if (a == "--grid") o.grid_format = one_of(a, value(), {"native", "float32"});
         else if (a == "--resample") o.resample = static_cast<float>(number(a, value(), 0.1, 8));
         else if (a == "--spacing") o.spacing = parse_vec3(a, value());
         else if (a == "--range") o.range = parse_range(value());

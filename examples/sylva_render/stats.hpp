@@ -42,6 +42,10 @@ struct Stats {
         std::string range_source;                ///< where that range came from
         std::size_t data_bytes = 0;              ///< the volume's voxels as read (procedural: float32)
         std::size_t voxels = 0, grid_bytes_16bit = 0;
+        /// What the renderer's grid words take (uint8: 1 byte a voxel) and its index (kd-tree
+        /// words, BIH + ranges, ...); grid_format uint8|uint16|float32, border clamp|zero.
+        std::size_t grid_bytes = 0, index_bytes = 0;
+        std::string grid_format = "float32", border = "zero";
         std::size_t full_nodes = 0, full_bytes = 0, full_bytes_paper = 0;
         double full_single_percent = 0, full_ms = 0;
         std::uint32_t full_depth = 0;
@@ -306,6 +310,8 @@ struct Stats {
             out << ", \"mode\": " << quoted(v.mode) << ", \"value_range\": [" << v.range_lo << ", " << v.range_hi
                 << "], \"value_range_source\": " << quoted(v.range_source) << ", \"data_bytes\": " << v.data_bytes
                 << ", \"voxels\": " << v.voxels
+                << ", \"grid_bytes\": " << v.grid_bytes << ", \"index_bytes\": " << v.index_bytes
+                << ", \"grid_format\": " << quoted(v.grid_format) << ", \"border\": " << quoted(v.border)
                 << ", \"grid_bytes_16bit\": " << v.grid_bytes_16bit << ", \"full_nodes\": " << v.full_nodes
                 << ", \"full_single_child_percent\": " << v.full_single_percent << ", \"full_max_depth\": " << v.full_depth
                 << ", \"full_bytes\": " << v.full_bytes << ", \"full_bytes_paper\": " << v.full_bytes_paper

@@ -74,6 +74,38 @@ volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s) {
     return std::move(*g);
 }
 
+}  // namespace
+
+GridWords render_grid(const Options& o, const volume::DensityGrid& g, Stats& s) {
+    GridBorder border = o.border == "clamp" ? GridBorder::clamp() : GridBorder{};
+    s.volume.border = o.border;
+    if (o.grid_format == "native") {
+        volume::Volume bytes;
+        bytes.type = volume::ScalarType::U8;
+        bytes.dims = g.dims;
+        bytes.spacing = g.spacing;
+        bytes.bytes.resize(g.values.size());
+        bool exact = true;
+        for (std::size_t i = 0; exact && i < g.values.size(); ++i) {
+            long r = std::lround(g.values[i] * 255.0f);
+            exact = r >= 0 && r <= 255 && static_cast<float>(r) / 255.0f == g.values[i];
+            bytes.bytes[i] = std::byte(static_cast<std::uint8_t>(exact ? r : 0));
+        }
+        if (exact) {
+            GridWords w = GridWords::native(bytes, border);
+            s.volume.grid_bytes = w.grid_bytes();
+            s.volume.grid_format = "uint8";
+            return w;
+        }
+    }
+    GridWords w = GridWords::from(g, border);
+    s.volume.grid_bytes = w.grid_bytes();
+    s.volume.grid_format = "float32";
+    return w;
+}
+
+namespace {
+
 volume::TransferFunction transfer_function(const Options& o) {
     if (!o.tf.empty()) return read_tf_file(o.tf);
     if (o.tf_preset == "ramp") return volume::TransferFunction::ramp(o.threshold, 1.0f, vec4(1.0f, 0.85f, 0.6f, 0.5f));
@@ -148,13 +180,14 @@ BuiltLod build_lod(const Options& o, const volume::DensityGrid& g, ThreadPool& p
 }
 
 Frame render(const Options& o, const volume::DensityGrid& g, const BuiltLod& lod, const VolumeRenderParams& p,
-             ThreadPool& pool, std::string& device) {
+             ThreadPool& pool, Stats& s) {
+    std::string& device = s.device;
     if (p.mode != VolumeMode::DvrReference && lod.words.empty()) {  // no element: nothing to traverse
         device = "host, nothing traversed (no element)";
         return blank_frame(p.width, p.height);
     }
     std::optional<GridWords> grid;
-    if (p.mode == VolumeMode::DvrReference) grid = GridWords::from(g);
+    if (p.mode == VolumeMode::DvrReference) grid = render_grid(o, g, s);
     VoxelBihView view{lod.words, lod.ranges, g.spacing, g.world_box()};
     if (o.backend == "cpu") {
         device = "host, " + std::to_string(pool.concurrency()) + " threads";
@@ -245,13 +278,15 @@ int run_volume(const Options& o) {
     BuiltLod lod;
     if (o.index == "bih") lod = build_lod(o, g, pool, s);
     else s.bytes = g.values.size() * 4;  // the float grid the marcher reads; elements stay 0: no index
+    s.volume.index_bytes = o.index == "bih" ? (lod.words.size() + lod.ranges.size()) * 4 : 0;
     Stats::VolumeRows& v = s.volume;
     v.present = true;
     v.mode = o.index == "none" ? "dvr (reference marcher)" : (o.mode == "iso" ? "iso" : "dvr " + o.dvr + "-sample");
     v.grid = std::to_string(g.dims.x) + "x" + std::to_string(g.dims.y) + "x" + std::to_string(g.dims.z);
     v.voxels = g.values.size();
     v.grid_bytes_16bit = g.values.size() * 2;
-    Frame f = render(o, g, lod, p, pool, s.device);
+    Frame f = render(o, g, lod, p, pool, s);
+    if (o.index == "none" && s.volume.grid_bytes != 0) s.bytes = s.volume.grid_bytes;  // the words the marcher read
     write_frame(o.output, f, vec3(0.0f));
     if (!o.heatmap.empty()) s.heatmap_peak = write_heatmap(o.heatmap, f);
     s.fill_frame(f);

@@ -31,6 +31,12 @@ sylva::Frame blank_frame(std::uint32_t width, std::uint32_t height);
 void warn_if_nothing_visible(const Options& o, const Stats& s, const sylva::volume::DensityGrid& g,
                              const sylva::VolumeRenderParams& p, std::ostream& err);
 
+/// The grid words the marcher and ESS DVR read (--border, --grid): with --grid native a density
+/// grid whose every value is exactly v / 255 for a byte v (uint8 data over 0..255, not
+/// resampled) goes back to 1 byte a voxel (GridWords::native; verified value by value, else the
+/// float words); the stats get grid_bytes, grid_format and border.
+sylva::GridWords render_grid(const Options& o, const sylva::volume::DensityGrid& g, Stats& s);
+
 /// Reads a transfer-function file (.json, else text control points; sylva/volume/transfer_function.hpp).
 sylva::volume::TransferFunction read_tf_file(const std::string& path);
 

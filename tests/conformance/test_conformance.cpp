@@ -77,6 +77,22 @@ struct IgnoresRange {
     }
 };
 
+/// A ball of constant extinction (a C++-only RayInteraction): depth sigma * path length, or, when
+/// `squared`, sigma * length^2 (wrong: not additive over a split interval).
+struct FogBall {
+    sylva::Sphere s;
+    float sigma = 2.0f;
+    bool squared = false;
+    [[nodiscard]] Aabb bounds() const { return s.bounds(); }
+    [[nodiscard]] std::optional<Interval> intersect(const Ray& r, Interval i) const { return s.intersect(r, i); }
+    [[nodiscard]] std::optional<sylva::Contribution> interact(const Ray& r, Interval i) const {
+        auto t = s.intersect(r, i);
+        if (!t) return std::nullopt;
+        const float length = (t->t1 - t->t0) * glm::length(r.direction);
+        return sylva::Contribution{*t, vec3(1.0f), squared ? sigma * length * length : sigma * length};
+    }
+};
+
 }  // namespace
 
 TEST_CASE("spheres conform: bounds, BIH, element octree and kd-tree queries, order, refit", "[conformance]") {
@@ -196,4 +212,20 @@ TEST_CASE("host against device: equal results pass, a wrong first hit or count f
     auto close = host;
     for (auto& h : close) h.t.t1 = std::nextafter(h.t.t1, INFINITY);
     CHECK(sylva::testing::compare_ray_hits(view, std::span<const Ray>(rays), host, close, 1e-5f).ok());
+}
+
+TEST_CASE("media: constant extinction conforms, a depth that is not additive over a split fails",
+          "[conformance][broken]") {
+    const Report good = sylva::testing::check_element_type<FogBall>(
+        [](Rng& rng) { return FogBall{random_sphere(rng), rng.uniform(0.5f, 5.0f), false}; }, quick());
+    INFO(good);
+    CHECK(good.ok());
+    CHECK(sylva::testing::to_string(good).find("medium:") != std::string::npos);
+
+    const Report bad = sylva::testing::check_element_type<FogBall>(
+        [](Rng& rng) { return FogBall{random_sphere(rng), rng.uniform(0.5f, 5.0f), true}; }, quick());
+    CHECK_FALSE(bad.ok());
+    CHECK(has_check(bad, "medium"));
+    INFO(bad);
+    CHECK(sylva::testing::to_string(bad).find("not additive") != std::string::npos);
 }

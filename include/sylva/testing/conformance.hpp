@@ -20,6 +20,8 @@
 //    the element octree and the element kd-tree, each equal to brute force (bih::brute_force_hits)
 //    on random rays, axis-parallel rays, rays starting inside the scene and limited ranges; the
 //    kd-tree again after refit_elements over moved instances.
+//  * medium (check_medium, for RayInteraction types): optical depth >= 0, finite colour, the
+//    contribution inside intersect's interval, and additive over a split of the interval.
 //  * ordering (inside check_structures): all_hits is sorted by bih::hit_before, names no element
 //    twice, and first_hit is its first entry.
 //  * host against a device (compare_ray_hits): per ray, the first hit (element, entry, exit)
@@ -346,6 +348,55 @@ Report check_bounds(std::span<const E> instances, const ConformanceConfig& cfg =
     return r;
 }
 
+/// What an element does to a ray (RayInteraction: optical depth and colour over an interval):
+/// over every sampled interval the optical depth is >= 0 (not NaN) and the colour finite; the
+/// contribution's interval lies inside intersect's; and the medium is additive: depth over
+/// [t0, s] plus depth over [s, t1] equals depth over [t0, t1] within `relative` (integrators
+/// split an element's interval where leaves meet).
+template <RayInteraction E>
+    requires Intersectable<E>
+Report check_medium(std::span<const E> instances, const ConformanceConfig& cfg = {}, float relative = 1e-4f) {
+    Report r;
+    r.max_reports = cfg.max_reports;
+    Rng rng(cfg.seed ^ 0x3ED1A3ull);
+    const Interval full{-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity()};
+    auto depth = [](const std::optional<Contribution>& c) { return c ? c->optical_depth : 0.0f; };
+    std::size_t sampled = 0;
+    for (std::size_t k = 0; k < instances.size(); ++k) {
+        const E& e = instances[k];
+        const Aabb box = bounds_of(e);
+        if (box.empty() || !box.finite()) continue;
+        const std::string name = "instance " + std::to_string(k);
+        for (const Ray& ray : detail::rays_at(box, cfg.rays_per_instance / 2, rng)) {
+            const std::optional<Interval> t = intersect_element(e, ray, full);
+            if (!t || !(t->t0 < t->t1)) continue;
+            ++sampled;
+            const std::optional<Contribution> whole = interact_element(e, ray, *t);
+            const bool sane = !whole || (whole->optical_depth >= 0.0f && std::isfinite(whole->rgb.x) &&
+                                         std::isfinite(whole->rgb.y) && std::isfinite(whole->rgb.z) &&
+                                         whole->interval.t0 >= t->t0 && whole->interval.t1 <= t->t1);
+            r.expect(sane, "medium", ray, *t, [&] {
+                return name + ": interact over " + format_interval(*t) + " gives optical depth " +
+                       std::to_string(whole->optical_depth) + ", colour " + format_vec3(whole->rgb) + " over " +
+                       format_interval(whole->interval) + " (needs depth >= 0, finite colour, inside the interval)";
+            });
+            const float split = t->t0 + (t->t1 - t->t0) * rng.uniform(0.1f, 0.9f);
+            const float a = depth(interact_element(e, ray, Interval{t->t0, split}));
+            const float b = depth(interact_element(e, ray, Interval{split, t->t1}));
+            const float w = depth(whole);
+            const bool additive = (a + b == w) || std::fabs(a + b - w) <= relative * std::max(w, 1e-3f);
+            r.expect(additive, "medium", ray, *t, [&] {
+                return name + ": optical depth over " + format_interval(*t) + " is " + std::to_string(w) +
+                       ", but split at t = " + std::to_string(split) + " the halves give " + std::to_string(a) +
+                       " + " + std::to_string(b) + " (the medium is not additive over an interval)";
+            });
+        }
+    }
+    r.notes.push_back("medium: " + std::to_string(instances.size()) + " instances, " + std::to_string(sampled) +
+                      " intervals split");
+    return r;
+}
+
 namespace detail {
 
 /// Rays through a scene box: random, axis-parallel, starting inside, limited ranges.
@@ -512,6 +563,7 @@ Report check_element_type(Gen&& generate, const ConformanceConfig& cfg = {}) {
     Rng rng(cfg.seed);
     const std::vector<C> probes = detail::generate<E>(generate, cfg.bounds_instances, rng);
     r.merge(check_bounds(std::span<const C>(probes), cfg));
+    if constexpr (RayInteraction<C>) r.merge(check_medium(std::span<const C>(probes), cfg));
     const std::vector<C> scene = detail::generate<E>(generate, cfg.element_count, rng);
     const std::vector<C> moved = detail::generate<E>(generate, cfg.element_count, rng);
     r.merge(check_structures(std::span<const C>(scene), cfg, std::span<const C>(moved)));
