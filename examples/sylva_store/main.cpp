@@ -220,8 +220,11 @@ int main(int argc, char** argv) {
     try {
         o = parse(argc, argv);
     } catch (const std::invalid_argument& e) {
-        if (std::string(e.what()) != "help") std::cerr << "sylva-store: " << e.what() << "\n";
-        std::cerr << usage();
+        if (std::string(e.what()) == "help") {
+            std::cout << usage();
+            return 0;
+        }
+        std::cerr << "sylva-store: " << e.what() << "\nRun sylva-store --help for the commands and options.\n";
         return 2;
     }
     try {

@@ -31,8 +31,9 @@ struct Options {
     std::uint64_t commit_bricks = 0;     ///< --commit-bricks N
 };
 
-const char* usage();
-/// Parses argv; throws std::invalid_argument with a message for bad usage.
+/// The help text (CLI11's, every subcommand).
+std::string usage();
+/// Parses argv (CLI11); throws std::invalid_argument with a message for bad usage ("help" for -h).
 Options parse(int argc, char** argv);
 /// "256M" -> 268435456; K, M, G, T suffixes (powers of 1024), a plain number is bytes.
 std::uint64_t parse_bytes(const std::string& opt, const std::string& v);
