@@ -101,6 +101,20 @@ SYLVA_FN float sylva_grid_index(float p, float s, uint n) {
     return sylva_grid_clamp(u, 0.0f, float((n > 0u) ? n - 1u : 0u));
 }
 
+/// The trilinear blend of the eight voxels {i0, i1} per axis (inside the grid) with weights f:
+/// x first, then y, then z.
+SYLVA_FN float sylva_grid_trilinear(SYLVA_BUF(grid), SylvaGridDesc g, uvec3 i0, uvec3 i1, vec3 f) {
+    float c00 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i0.z), f.x);
+    float c10 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i0.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i0.z), f.x);
+    float c01 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i1.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i1.z), f.x);
+    float c11 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i1.z),
+                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i1.z), f.x);
+    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+}
+
 /// Density of the voxel at signed coordinates (x, y, z): border_value outside the grid.
 SYLVA_FN float sylva_grid_voxel_or_border(SYLVA_BUF(grid), SylvaGridDesc g, int x, int y, int z) {
     if (x < 0 || y < 0 || z < 0 || uint(x) >= g.dims.x || uint(y) >= g.dims.y || uint(z) >= g.dims.z) {
@@ -119,6 +133,11 @@ SYLVA_FN float sylva_grid_sample_constant(SYLVA_BUF(grid), SylvaGridDesc g, vec3
     int y0 = int(fl.y);
     int z0 = int(fl.z);
     SYLVA_PRECISE vec3 f = vec3(u.x - fl.x, u.y - fl.y, u.z - fl.z);
+    if (x0 >= 0 && y0 >= 0 && z0 >= 0 && uint(x0) + 1u < g.dims.x && uint(y0) + 1u < g.dims.y &&
+        uint(z0) + 1u < g.dims.z) {  // all eight corners inside: the clamped sampler's reads, no border test
+        return sylva_grid_trilinear(SYLVA_PASS_BUF(grid), g, uvec3(uint(x0), uint(y0), uint(z0)),
+                                    uvec3(uint(x0) + 1u, uint(y0) + 1u, uint(z0) + 1u), f);
+    }
     float c00 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0, z0),
                                 sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0, z0), f.x);
     float c10 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0 + 1, z0),
@@ -139,15 +158,7 @@ SYLVA_FN float sylva_grid_sample_clamped(SYLVA_BUF(grid), SylvaGridDesc g, vec3 
     uvec3 i1 = uvec3((i0.x + 1u < dims.x) ? i0.x + 1u : i0.x, (i0.y + 1u < dims.y) ? i0.y + 1u : i0.y,
                      (i0.z + 1u < dims.z) ? i0.z + 1u : i0.z);
     SYLVA_PRECISE vec3 f = vec3(u.x - float(i0.x), u.y - float(i0.y), u.z - float(i0.z));
-    float c00 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i0.z), f.x);
-    float c10 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i0.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i0.z), f.x);
-    float c01 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i1.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i1.z), f.x);
-    float c11 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i1.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i1.z), f.x);
-    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+    return sylva_grid_trilinear(SYLVA_PASS_BUF(grid), g, i0, i1, f);
 }
 
 /// Trilinear density at world point p of the grid g (format and border mode of g).
