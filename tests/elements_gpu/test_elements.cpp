@@ -53,6 +53,18 @@ void check_hits_against_brute_force(const S& s, std::size_t n_rays, std::uint32_
             ranges[i].t1, first, steps, status);
         REQUIRE(found == !want.empty());
         if (found) REQUIRE(same_hits({first}, {want[0]}));
+        // Announcing fewer hits than then asked for (sylva_hits_want) prunes, then passes again.
+        {
+            shared::SylvaHitIter hi;
+            I idx;
+            shared::sylva_hits_init<E, I>(hi, idx, w, static_cast<std::uint32_t>(s.words.size()), s.count(),
+                                          rs[i].origin, rs[i].direction, ranges[i].t0, ranges[i].t1);
+            shared::sylva_hits_want(hi, 2u);
+            std::vector<shared::SylvaHit> all;
+            shared::SylvaHit x;
+            while (shared::sylva_hits_next<E, I>(hi, idx, w, e, x)) all.push_back(x);
+            REQUIRE(same_hits(all, want));
+        }
         total += want.size();
         nonempty += want.empty() ? 0 : 1;
     }

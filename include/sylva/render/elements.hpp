@@ -127,6 +127,7 @@ ElementHits element_hits_cpu(std::span<const std::uint32_t> words, std::span<con
     I it;
     shared::sylva_hits_init<E, I>(h, it, w, static_cast<std::uint32_t>(words.size()), elem_count,
                                                      ray.origin, ray.direction, range.t0, range.t1);
+    shared::sylva_hits_want(h, max_hits < 0xFFFFFFFFu ? max_hits + 1u : max_hits);  // +1: is there more?
     ElementHits out;
     shared::SylvaHit hit;
     while (shared::sylva_hits_next<E, I>(h, it, w, e, hit)) {

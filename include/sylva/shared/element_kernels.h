@@ -76,6 +76,8 @@ struct SylvaHitIter {
     uint last_elem;
     uint passes;      ///< traversals of the index so far (1 unless the window overflowed)
     uint steps_before;///< index steps of the passes before this one
+    uint wanted;      ///< hits the caller will ask for (0xFFFFFFFF: all); sylva_hits_want
+    float clip_t;     ///< this pass skips leaves entered after clip_t, so it keeps no hit past it
     uint status;      ///< SYLVA_ITER_* of the index
 #ifdef __cplusplus
     SylvaHitWindow window;
@@ -149,6 +151,7 @@ SYLVA_FN void sylva_hits_start_pass(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(Syl
     h.leaf_t_out = sylva_inf();
     h.done = 0u;
     h.truncated = 0u;
+    h.clip_t = sylva_inf();
     h.passes = h.passes + 1u;
     h.status = sylva_index_status(it);
     if (h.status == SYLVA_ITER_ERROR) h.done = 1u;
@@ -170,8 +173,14 @@ SYLVA_FN void sylva_hits_init(SYLVA_OUT(SylvaHitIter) h, SYLVA_OUT(SylvaIndexIte
     h.last_elem = 0u;
     h.passes = 0u;
     h.steps_before = 0u;
+    h.wanted = 0xFFFFFFFFu;
     sylva_hits_start_pass SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
 }
+
+/// Tells the iterator that only the first n hits will be asked for (first hit: 1): once n are
+/// known, the index skips leaves entered after the n-th (asking for more stays correct: another
+/// pass finds them).
+SYLVA_FN void sylva_hits_want(SYLVA_INOUT(SylvaHitIter) h, uint n) { h.wanted = n; }
 
 /// Index nodes visited so far, over all passes.
 SYLVA_ELEM_TEMPLATE
@@ -194,12 +203,22 @@ SYLVA_FN void sylva_hits_test_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(Sylv
     SylvaElem x;
     sylva_elem_load(SYLVA_PASS_BUF(elems), e, x);
     vec2 t = sylva_elem_interval(x, h.org, h.dir, h.t_min, h.t_max);
-    if (t.x <= t.y && sylva_index_keeps(it, t.x, h.leaf_t_in, h.leaf_t_out)) {
-        sylva_hit_insert(h, e, t.x, t.y);
-        if (h.count == uint(SYLVA_HIT_WINDOW)) {
-            sylva_index_clip(it, SYLVA_HIT_WINDOW_OF(h).w_t0[0]);
-            h.truncated = 1u;  // what the clip skips is found by the next pass
-        }
+    if (!(t.x <= t.y) || !sylva_index_keeps(it, t.x, h.leaf_t_in, h.leaf_t_out)) return;
+    if (t.x > h.clip_t) {
+        h.truncated = 1u;  // a skipped leaf may hold earlier hits: the next pass finds this one
+        return;
+    }
+    sylva_hit_insert(h, e, t.x, t.y);
+    // Leaves entered after the latest hit still needed are skipped (a full window, or the hits
+    // the caller wants); what the clip skips, another pass finds if it is asked for. The window
+    // never keeps a hit past the clip, so nothing skipped comes before a hit handed out.
+    if (h.count >= h.wanted) {
+        while (h.count > h.wanted) sylva_hit_drop_latest(h);
+    }
+    if (h.count == uint(SYLVA_HIT_WINDOW) || h.count >= h.wanted) {
+        h.clip_t = sylva_min(h.clip_t, SYLVA_HIT_WINDOW_OF(h).w_t0[0]);
+        sylva_index_clip(it, h.clip_t);
+        h.truncated = 1u;
     }
 }
 
@@ -270,6 +289,7 @@ SYLVA_FN bool sylva_elements_first_hit(SYLVA_BUF(words), uint word_count, SYLVA_
     SylvaHitIter h;
     SylvaIndexIter it;
     sylva_hits_init SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), word_count, elem_count, o, d, t_min, t_max);
+    sylva_hits_want(h, 1u);
     bool found = sylva_hits_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), hit);
     steps = sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
     status = h.status;

@@ -24,6 +24,7 @@ void sylva_element_hits_main(uint r) {
     SylvaIndexIter it;
     sylva_hits_init(h, it, 0u, sylva_pc.word_count, sylva_pc.elem_count, o, d, sylva_rays_data[at + 6u],
                     sylva_rays_data[at + 7u]);
+    sylva_hits_want(h, (sylva_pc.max_hits < 0xFFFFFFFFu) ? sylva_pc.max_hits + 1u : sylva_pc.max_hits);
     uint out_at = r * (4u + 3u * sylva_pc.max_hits);
     uint n = 0u;
     uint more = 0u;
