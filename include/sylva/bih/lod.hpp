@@ -189,7 +189,7 @@ inline DecodedBoxes decode_boxes(const shared::Words& buf, const shared::SylvaBi
     for (std::size_t k = 0; k < d.order.size(); ++k) {
         std::uint32_t i = d.order[k];
         uint meta = sylva_bih_meta(buf, h, i);
-        uint axis = meta & 3u;
+        uint axis = sylva_bih_meta_type(meta);
         if (axis == SYLVA_BIH_LEAF) continue;
         vec2 planes = sylva_bih_planes(buf, h, i);
         auto add = [&](std::uint32_t kid, vec3 lo, vec3 hi) {
@@ -198,8 +198,8 @@ inline DecodedBoxes decode_boxes(const shared::Words& buf, const shared::SylvaBi
             d.parent[kid] = i;
             d.order.push_back(kid);
         };
-        if ((meta & 4u) != 0u) {  // single child within [A, B]
-            uint kid = (h.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u ? (meta >> 3u) : i + 1u;
+        if (sylva_bih_meta_single(meta)) {  // single child within [A, B]
+            uint kid = sylva_bih_first_child((h.flags & SYLVA_BIH_FLAG_CHUNKED) != 0u, i, meta);
             add(kid, sylva_with(d.lo[i], axis, planes.x), sylva_with(d.hi[i], axis, planes.y));
             continue;
         }
@@ -232,7 +232,7 @@ inline std::vector<std::uint32_t> encode_node_ranges(std::span<const std::uint32
     std::vector<vec2> range(h.node_count, vec2(sylva_inf(), -sylva_inf()));
     for (auto it = d.order.rbegin(); it != d.order.rend(); ++it) {  // children before parents
         std::uint32_t i = *it;
-        if ((sylva_bih_meta(buf, h, i) & 3u) == SYLVA_BIH_LEAF)
+        if (sylva_bih_meta_type(sylva_bih_meta(buf, h, i)) == SYLVA_BIH_LEAF)
             range[i] = detail::decoded_leaf_range(buf, h, i, sylva_bih_to_world(h, d.lo[i]),
                                                   sylva_bih_to_world(h, d.hi[i]), voxel_size);
         if (std::uint32_t p = d.parent[i]; p != SYLVA_NO_NODE)
