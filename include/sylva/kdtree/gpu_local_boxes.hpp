@@ -114,54 +114,6 @@ inline void gather_local_boxes(std::span<const std::uint32_t> words, const Block
     }
 }
 
-namespace detail {
-
-/// Masks and count of one block while its rows stream by.
-struct BlockAccumulator {
-    std::uint32_t x = 0, y = 0, z = 0, count = 0;
-};
-
-/// Words of the row of blocks (by, bz): streams its grid rows from `src` (one read each).
-template <volume::OccupancySource S>
-void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, std::vector<std::uint8_t>& row,
-                     std::vector<BlockAccumulator>& acc, std::uint32_t* words) {
-    volume::Dims d = src.dims;
-    std::fill(acc.begin(), acc.end(), BlockAccumulator{});
-    for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
-        for (std::uint32_t y = by * 8u; y < std::min(d.y, by * 8u + 8u); ++y) {
-            src.row(0, d.x, y, z, row.data());
-            for (std::uint32_t bx = 0; bx < nb.x; ++bx) {
-                std::uint32_t m = row_mask(row.data() + bx * 8u, std::min(8u, d.x - bx * 8u));
-                if (!m) continue;
-                acc[bx].x |= m;
-                acc[bx].y |= 1u << (y & 7u);
-                acc[bx].z |= 1u << (z & 7u);
-                acc[bx].count += static_cast<std::uint32_t>(std::popcount(m));
-            }
-        }
-    std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
-    for (std::uint32_t bx = 0; bx < nb.x; ++bx)
-        words[first + bx] = shared::sylva_kd_box_word(acc[bx].x, acc[bx].y, acc[bx].z, acc[bx].count, false);
-}
-
-}  // namespace detail
-
-/// The pass on the host: one word per block of `src` into `words` (resized, storage reused),
-/// rows of blocks in parallel on `exec`. Errors of the source (bad values) propagate.
-template <volume::OccupancySource S, Executor X>
-void block_words(const S& src, X& exec, std::vector<std::uint32_t>& words) {
-    volume::voxel_count(src.dims);
-    uvec3 nb = block_counts(src.dims);
-    words.resize(std::size_t{nb.x} * nb.y * nb.z);
-    exec.parallel_for(0, std::size_t{nb.y} * nb.z, 1, [&](std::size_t lo, std::size_t hi) {
-        std::vector<std::uint8_t> row(src.dims.x);
-        std::vector<detail::BlockAccumulator> acc(nb.x);
-        for (std::size_t r = lo; r < hi; ++r)
-            detail::block_row_words(src, nb, static_cast<std::uint32_t>(r % nb.y), static_cast<std::uint32_t>(r / nb.y),
-                                    row, acc, words.data());
-    });
-}
-
 /// The raw voxels the device pass reads (non-owning: the data must outlive it).
 struct BoxSource {
     std::uint32_t source = SYLVA_KD_BOX_SOURCE_U8;  ///< SYLVA_KD_BOX_SOURCE_*: the packing
@@ -476,6 +428,11 @@ void block_verdicts(const BoxSource& s, const BlockValues& v, const C& classify,
     }
 }
 
+namespace detail {
+/// Masks and count of one block while its rows stream by (the shared accumulator).
+using BlockAccumulator = shared::SylvaKdBoxAcc;
+}  // namespace detail
+
 /// The block word of a block whose every voxel is occupied.
 inline std::uint32_t full_block_word(volume::Dims dims, uvec3 b) { return shared::sylva_kd_box_full_word(uvec3(dims), b); }
 
@@ -483,41 +440,53 @@ namespace detail {
 
 /// Words of the row of blocks (by, bz) under `verdicts`: decided blocks without reading, runs of
 /// blocks to read as sub-rows of the grid.
+/// (`verdicts` null: every block is read.) The one host loop of the 8^3 pass; per block it runs
+/// the shader's accumulation (sylva_kd_box_accumulate, sylva_kd_box_acc_word).
 template <volume::OccupancySource S>
 void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, const std::uint8_t* verdicts,
                      std::vector<std::uint8_t>& row, std::vector<BlockAccumulator>& acc, std::uint32_t* words) {
     volume::Dims d = src.dims;
     std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
+    auto read = [&](std::uint32_t bx) { return verdicts == nullptr || verdicts[first + bx] == kBlockRead; };
     for (std::uint32_t bx = 0; bx < nb.x;) {
-        std::uint8_t v = verdicts[first + bx];
-        if (v != kBlockRead) {
-            words[first + bx] = v == kBlockFull ? full_block_word(d, uvec3(bx, by, bz)) : 0u;
+        if (!read(bx)) {
+            words[first + bx] = verdicts[first + bx] == kBlockFull ? full_block_word(d, uvec3(bx, by, bz)) : 0u;
             ++bx;
             continue;
         }
         std::uint32_t end = bx + 1;
-        while (end < nb.x && verdicts[first + end] == kBlockRead) ++end;
+        while (end < nb.x && read(end)) ++end;
         std::uint32_t x0 = bx * 8u, x1 = std::min(d.x, end * 8u);
-        std::fill(acc.begin(), acc.begin() + (end - bx), BlockAccumulator{});
+        std::fill(acc.begin(), acc.begin() + (end - bx), shared::sylva_kd_box_acc_zero());
         for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
             for (std::uint32_t y = by * 8u; y < std::min(d.y, by * 8u + 8u); ++y) {
                 src.row(x0, x1, y, z, row.data());
-                for (std::uint32_t k = 0; k < end - bx; ++k) {
-                    std::uint32_t m = row_mask(row.data() + k * 8u, std::min(8u, x1 - x0 - k * 8u));
-                    if (!m) continue;
-                    acc[k].x |= m;
-                    acc[k].y |= 1u << (y & 7u);
-                    acc[k].z |= 1u << (z & 7u);
-                    acc[k].count += static_cast<std::uint32_t>(std::popcount(m));
-                }
+                for (std::uint32_t k = 0; k < end - bx; ++k)
+                    shared::sylva_kd_box_accumulate(acc[k], row_mask(row.data() + k * 8u, std::min(8u, x1 - x0 - k * 8u)),
+                                                    y & 7u, z & 7u);
             }
-        for (std::uint32_t k = 0; k < end - bx; ++k)
-            words[first + bx + k] = shared::sylva_kd_box_word(acc[k].x, acc[k].y, acc[k].z, acc[k].count, false);
+        for (std::uint32_t k = 0; k < end - bx; ++k) words[first + bx + k] = shared::sylva_kd_box_acc_word(acc[k], false);
         bx = end;
     }
 }
 
 }  // namespace detail
+
+/// The pass on the host: one word per block of `src` into `words` (resized, storage reused),
+/// rows of blocks in parallel on `exec`. Errors of the source (bad values) propagate.
+template <volume::OccupancySource S, Executor X>
+void block_words(const S& src, X& exec, std::vector<std::uint32_t>& words) {
+    volume::voxel_count(src.dims);
+    uvec3 nb = block_counts(src.dims);
+    words.resize(std::size_t{nb.x} * nb.y * nb.z);
+    exec.parallel_for(0, std::size_t{nb.y} * nb.z, 1, [&](std::size_t lo, std::size_t hi) {
+        std::vector<std::uint8_t> row(src.dims.x);
+        std::vector<detail::BlockAccumulator> acc(nb.x);
+        for (std::size_t r = lo; r < hi; ++r)
+            detail::block_row_words(src, nb, static_cast<std::uint32_t>(r % nb.y), static_cast<std::uint32_t>(r / nb.y),
+                                    nullptr, row, acc, words.data());
+    });
+}
 
 /// block_words reading only the blocks whose verdict (block_verdicts) is kBlockRead: the same
 /// words as block_words(src, exec, words) when the verdicts come from `src`'s classification.

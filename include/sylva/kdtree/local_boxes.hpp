@@ -5,10 +5,11 @@
 //
 // The pass is one streaming read of the occupancy. Per block it OR-reduces three 8-bit masks:
 // the x bits of every row, and one y bit and one z bit per row that holds an occupied voxel; the
-// lowest and highest set bits of each mask are the block's tight box (box_from_masks). This is
+// lowest and highest set bits of each mask are the block's tight box (box_from_acc). This is
 // the same box the paper finds by binary search in an 8^3 partial SVT, computed without the
-// table; a compute shader mirrors it with one workgroup per block, atomicOr (or subgroupOr) on
-// the masks and box_from_masks in one invocation.
+// table. The per-block accumulation and the box are one definition in the shared subset
+// (sylva/shared/kd_local_boxes.h: sylva_kd_box_accumulate, sylva_kd_box_acc_word), which this
+// pass, the dense host pass of gpu_local_boxes.hpp and the compute shader all call.
 #ifndef SYLVA_KDTREE_LOCAL_BOXES_HPP
 #define SYLVA_KDTREE_LOCAL_BOXES_HPP
 
@@ -25,6 +26,7 @@
 #include "sylva/core/concepts.hpp"
 #include "sylva/core/error.hpp"
 #include "sylva/volume/grid.hpp"
+#include "sylva/shared/kd_local_boxes.h"
 #include "sylva/volume/occupancy.hpp"
 
 namespace sylva::kdtree {
@@ -45,18 +47,12 @@ inline std::uint64_t morton3(uvec3 c) {
     return spread(c.x) | (spread(c.y) << 1) | (spread(c.z) << 2);
 }
 
-/// The OR-reduced occupancy masks of one 8^3 block: bit i of x is set when some voxel with
-/// local x = i is occupied, and likewise for y and z.
-struct BlockMasks {
-    std::uint32_t x = 0, y = 0, z = 0;
-};
-
-/// The tight box of a block from its masks (x must be non-zero): lowest to highest set bit.
-inline VoxelBox box_from_masks(uvec3 block, const BlockMasks& m) {
+/// The tight box of block `block` from its accumulated masks (count > 0): lowest to highest
+/// set bit of each mask, through the shader's block word (sylva/shared/kd_local_boxes.h).
+inline VoxelBox box_from_acc(uvec3 block, const shared::SylvaKdBoxAcc& a) {
+    std::uint32_t w = shared::sylva_kd_box_acc_word(a, false);
     uvec3 base = block * 8u;
-    uvec3 lo(std::countr_zero(m.x), std::countr_zero(m.y), std::countr_zero(m.z));
-    uvec3 hi(std::bit_width(m.x), std::bit_width(m.y), std::bit_width(m.z));
-    return VoxelBox{base + lo, base + hi};
+    return VoxelBox{base + shared::sylva_kd_box_word_lo(w), base + shared::sylva_kd_box_word_last(w) + 1u};
 }
 
 /// The 8^3 local boxes of a grid: non-empty blocks only, ascending Morton code.
@@ -110,33 +106,26 @@ inline std::uint32_t row_mask(const std::uint8_t* p, std::uint32_t n) {
     return m;
 }
 
-/// ORs one row (local y = ly, z = lz within its blocks) into the masks of its blocks.
-inline void accumulate_row(const std::uint8_t* row, std::uint32_t nx, std::uint32_t ly, std::uint32_t lz,
-                           std::vector<BlockMasks>& masks) {
-    for (std::uint32_t bx = 0; bx < masks.size(); ++bx) {
-        std::uint32_t x0 = bx * 8u, m = row_mask(row + x0, std::min(8u, nx - x0));
-        if (!m) continue;
-        masks[bx].x |= m;
-        masks[bx].y |= 1u << ly;
-        masks[bx].z |= 1u << lz;
-    }
-}
-
-/// Local boxes of one row of blocks (by, bz), appended to `codes`/`boxes`.
+/// Local boxes of one row of blocks (by, bz), appended to `out`; returns its occupied voxels.
+/// Per block the shader's accumulation (sylva_kd_box_accumulate) over each grid row's masks.
 template <volume::OccupancySource S>
 std::uint64_t block_row(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, std::vector<std::uint8_t>& row,
-                        std::vector<BlockMasks>& masks, std::vector<std::pair<std::uint64_t, VoxelBox>>& out) {
+                        std::vector<shared::SylvaKdBoxAcc>& acc, std::vector<std::pair<std::uint64_t, VoxelBox>>& out) {
     volume::Dims d = src.dims;
-    std::fill(masks.begin(), masks.end(), BlockMasks{});
-    std::uint64_t occupied = 0;
+    std::fill(acc.begin(), acc.end(), shared::sylva_kd_box_acc_zero());
     for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
         for (std::uint32_t y = by * 8u; y < std::min(d.y, by * 8u + 8u); ++y) {
             src.row(0, d.x, y, z, row.data());
-            occupied += volume::detail::count_ones(row.data(), d.x);
-            accumulate_row(row.data(), d.x, y & 7u, z & 7u, masks);
+            for (std::uint32_t bx = 0; bx < nb.x; ++bx)
+                shared::sylva_kd_box_accumulate(acc[bx], row_mask(row.data() + bx * 8u, std::min(8u, d.x - bx * 8u)),
+                                                y & 7u, z & 7u);
         }
-    for (std::uint32_t bx = 0; bx < nb.x; ++bx)
-        if (masks[bx].x) out.emplace_back(morton3(uvec3(bx, by, bz)), box_from_masks(uvec3(bx, by, bz), masks[bx]));
+    std::uint64_t occupied = 0;
+    for (std::uint32_t bx = 0; bx < nb.x; ++bx) {
+        if (acc[bx].count == 0u) continue;
+        occupied += acc[bx].count;
+        out.emplace_back(morton3(uvec3(bx, by, bz)), box_from_acc(uvec3(bx, by, bz), acc[bx]));
+    }
     return occupied;
 }
 
@@ -158,12 +147,12 @@ LocalBoxes local_boxes(const S& src, X& exec) {
     std::size_t rows = std::size_t{lb.blocks.y} * lb.blocks.z;
     exec.parallel_for(0, rows, 1, [&](std::size_t lo, std::size_t hi) {
         std::vector<std::uint8_t> row(src.dims.x);
-        std::vector<BlockMasks> masks(lb.blocks.x);
+        std::vector<shared::SylvaKdBoxAcc> acc(lb.blocks.x);
         std::vector<std::pair<std::uint64_t, VoxelBox>> found;
         std::uint64_t occupied = 0;
         for (std::size_t r = lo; r < hi; ++r)
             occupied += detail::block_row(src, lb.blocks, static_cast<std::uint32_t>(r % lb.blocks.y),
-                                          static_cast<std::uint32_t>(r / lb.blocks.y), row, masks, found);
+                                          static_cast<std::uint32_t>(r / lb.blocks.y), row, acc, found);
         std::lock_guard lock(m);
         all.insert(all.end(), found.begin(), found.end());
         lb.occupied += occupied;

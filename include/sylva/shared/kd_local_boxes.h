@@ -195,6 +195,40 @@ SYLVA_FN uint sylva_kd_box_word(uint mx, uint my, uint mz, uint count, bool bad)
     return w | (count << SYLVA_KD_BOX_COUNT_SHIFT);
 }
 
+/// Masks and count of one 8^3 block while its rows are read (the one accumulation every pass
+/// uses: this shader's blocks and the host's rows of blocks, sylva/kdtree/local_boxes.hpp and
+/// gpu_local_boxes.hpp): bit i of mx is set when a voxel with local x = i is occupied, likewise
+/// my and mz; count is the number of occupied voxels.
+struct SylvaKdBoxAcc {
+    uint mx;
+    uint my;
+    uint mz;
+    uint count;
+};
+
+SYLVA_FN SylvaKdBoxAcc sylva_kd_box_acc_zero() {
+    SylvaKdBoxAcc a;
+    a.mx = 0u;
+    a.my = 0u;
+    a.mz = 0u;
+    a.count = 0u;
+    return a;
+}
+
+/// ORs the occupancy mask m (bit k = local x k) of the block's row at local (ly, lz) into a.
+SYLVA_FN void sylva_kd_box_accumulate(SYLVA_INOUT(SylvaKdBoxAcc) a, uint m, uint ly, uint lz) {
+    if (m == 0u) return;
+    a.mx = a.mx | m;
+    a.my = a.my | (1u << ly);
+    a.mz = a.mz | (1u << lz);
+    a.count = a.count + uint(bitCount(m));
+}
+
+/// The block word of an accumulated block.
+SYLVA_FN uint sylva_kd_box_acc_word(SylvaKdBoxAcc a, bool bad) {
+    return sylva_kd_box_word(a.mx, a.my, a.mz, a.count, bad);
+}
+
 /// The block word of block `b` (block coordinates; its voxels must lie in the slab).
 SYLVA_FN uint sylva_kd_box_block(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(alphas), SylvaKdBoxParams p, uvec3 b) {
     uvec4 lut_lo = uvec4(0u);
@@ -205,27 +239,18 @@ SYLVA_FN uint sylva_kd_box_block(SYLVA_BUF(voxels), SYLVA_BUF(lut), SYLVA_BUF(al
     }
     uvec3 base = uvec3(b.x * 8u, b.y * 8u, b.z * 8u);
     uvec3 n = uvec3(min(8u, p.dims.x - base.x), min(8u, p.dims.y - base.y), min(8u, p.dims.z - base.z));
-    uint mx = 0u;
-    uint my = 0u;
-    uint mz = 0u;
-    uint count = 0u;
+    SylvaKdBoxAcc acc = sylva_kd_box_acc_zero();
     bool bad = false;
     for (uint z = 0u; z < n.z; z++) {
         for (uint y = 0u; y < n.y; y++) {
             uint at = base.x + p.dims.x * (base.y + y + p.dims.y * (base.z + z - p.slab_z0));
             uint r = sylva_kd_box_row(SYLVA_PASS_BUF(voxels), SYLVA_PASS_BUF(lut), SYLVA_PASS_BUF(alphas), p, lut_lo,
                                       lut_hi, at, n.x);
-            uint m = r & 255u;
             if (r > 255u) bad = true;
-            if (m != 0u) {
-                mx = mx | m;
-                my = my | (1u << y);
-                mz = mz | (1u << z);
-                count = count + uint(bitCount(m));
-            }
+            sylva_kd_box_accumulate(acc, r & 255u, y, z);
         }
     }
-    return sylva_kd_box_word(mx, my, mz, count, bad);
+    return sylva_kd_box_acc_word(acc, bad);
 }
 
 /// The block word of block `b` when every one of its voxels is occupied (edge blocks clipped).
