@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -44,41 +45,34 @@ namespace {
 
 using namespace sylva;
 
-using bench_cli::UsageError;
-
 struct Options {
     std::string data = SYLVA_DATA_DIR;
     std::string json;
-    std::size_t threads = 0;
+    std::size_t threads = 0;  ///< 0: hardware concurrency
     std::size_t runs = 3;
     std::string only;
-    bool help = false;
 };
 
-const char* kUsage =
-    "usage: sylva-tables [--data DIR] [--json FILE] [--threads N] [--runs N] [--case NAME] [--help]\n"
-    "  --data DIR    folder with the volumes (default " SYLVA_DATA_DIR ")\n"
-    "  --json FILE   write every figure as a JSON array of {case, impl, metric, value, unit}\n"
-    "  --threads N   worker threads (default: hardware concurrency)\n"
-    "  --runs N      timed runs per case; medians are reported (default 3)\n"
-    "  --case NAME   only the cases whose name contains NAME (lobster, engine, aneurism, ...)\n"
-    "Exit status: 0 on success, 1 when a volume is missing or unreadable (unless the environment\n"
-    "sets SYLVA_ALLOW_MISSING_DATA=1: then those cases are left out), 2 on bad usage.\n";
-
-Options parse_options(int argc, char** argv) {
-    Options o;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        auto value = [&] { return bench_cli::value_of(i, argc, argv); };
-        if (a == "--data") o.data = value();
-        else if (a == "--json") o.json = value();
-        else if (a == "--threads") o.threads = bench_cli::parse_count(a, value(), 4096);
-        else if (a == "--runs") o.runs = bench_cli::parse_count(a, value(), 4096);
-        else if (a == "--case") o.only = value();
-        else if (a == "--help" || a == "-h") o.help = true;
-        else throw UsageError("unknown option '" + a + "'");
-    }
-    return o;
+/// The command line, bound to `o`.
+std::unique_ptr<CLI::App> make_app(Options& o) {
+    auto app = std::make_unique<CLI::App>(
+        "sylva-tables: Kinkelin's Tables 3 and 6 (full voxel BIH, node statistics, default LoD) measured "
+        "beside the paper's figures",
+        "sylva-tables");
+    app->footer(
+        "Exit status: 0 on success, 1 when a volume is missing or unreadable (unless the environment\n"
+        "sets SYLVA_ALLOW_MISSING_DATA=1: then those cases are left out), 2 on bad usage.");
+    app->add_option("--data", o.data, "folder with the volumes")->type_name("DIR")->capture_default_str();
+    app->add_option("--json", o.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")->type_name("FILE");
+    app->add_option("--threads", o.threads, "worker threads (default: hardware concurrency)")
+        ->type_name("N")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{4096}));
+    app->add_option("--runs", o.runs, "timed runs per case; medians are reported")
+        ->type_name("N")
+        ->capture_default_str()
+        ->check(CLI::Range(std::size_t{1}, std::size_t{4096}));
+    app->add_option("--case", o.only, "only the cases whose name contains NAME (lobster, engine, aneurism, ...)")->type_name("NAME");
+    return app;
 }
 
 // ---- the paper's figures ----------------------------------------------------------------------
@@ -302,12 +296,10 @@ bool run(const Options& o, std::vector<Record>& records, std::vector<std::pair<s
 }  // namespace
 
 int main(int argc, char** argv) {
+    Options o;
+    std::unique_ptr<CLI::App> app = make_app(o);
+    if (std::optional<int> status = bench_cli::parse(*app, argc, argv)) return *status;
     try {
-        Options o = parse_options(argc, argv);
-        if (o.help) {
-            std::cout << kUsage;
-            return 0;
-        }
         std::vector<Record> records;
         std::vector<std::pair<std::string, std::string>> shown;
         bool ok = run(o, records, shown);
@@ -318,9 +310,6 @@ int main(int argc, char** argv) {
         if (over.empty()) std::printf("  (none)\n");
         if (!o.json.empty()) write_json(o.json, records);
         return ok ? 0 : 1;
-    } catch (const UsageError& e) {
-        std::cerr << "sylva-tables: " << e.what() << "\n" << kUsage;
-        return 2;
     } catch (const std::exception& e) {
         std::cerr << "sylva-tables: " << e.what() << "\n";
         return 1;
