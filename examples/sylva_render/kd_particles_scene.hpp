@@ -37,6 +37,7 @@
 #include <sylva/render/octree_particles.hpp>
 #include <sylva/render/particles.hpp>
 
+#include "exact_particles_scene.hpp"
 #include "options.hpp"
 #include "stats.hpp"
 
@@ -168,7 +169,8 @@ inline int run_particle_animation(const Options& o, std::span<const sylva::Spher
             records = pack_particles(cur, std::span<const std::uint32_t>(identity));
         }
         encode_ms.push_back(ms_since(t0));
-        if (o.index == "bih") f = render_particles_cpu(words, records, cam, o.width, o.height, pool, rc);
+        if (o.order == "exact") f = render_exact_particles(o, words, records, cam, pool, s.device);  // --order exact
+        else if (o.index == "bih") f = render_particles_cpu(words, records, cam, o.width, o.height, pool, rc);
         else if (o.index == "kd") f = render_particles_kd_cpu(words, records, cam, o.width, o.height, pool, rc);
         else f = render_particles_octree_cpu(words, records, cam, o.width, o.height, pool, rc);
         render_ms.push_back(f.ms);

@@ -19,6 +19,7 @@
 #endif
 
 #include "options.hpp"
+#include "exact_particles_scene.hpp"
 #include "kd_particles_scene.hpp"
 #include "particle_octree_scene.hpp"
 #include "stats.hpp"
@@ -81,7 +82,9 @@ int run(const Options& o) {
     s.backend = o.backend;
     std::vector<Sphere> spheres = load_scene(o, s.input);
     ThreadPool pool(o.threads);
+    s.order = o.order;
     if (o.animate > 0) return run_particle_animation(o, spheres, pool, s);
+    if (o.order == "exact") return run_particle_exact(o, spheres, pool, s);
     if (o.particle_kd()) return run_particle_kd(o, spheres, pool, s);
     if (o.particle_octree()) return run_particle_octree(o, spheres, pool, s);
     bih::Tree tree = build_tree(o, spheres, pool);

@@ -28,6 +28,8 @@ const char* usage() {
            "octree (particles): --particles FILE --index octree, or --count N --index octree (the galaxy)\n"
            "kd-tree (particles): --index kd (the element kd-tree: the octree's exact image)\n"
            "moving particles:   [--animate N] [--update refit|rebuild] (--index bih|kd|octree, cpu)\n"
+           "particle order:     [--order exact|leaf] (exact, the default: bih, kd and octree through the generic\n"
+           "                    element kernel, the same image; leaf: each index's own integrator, the BIH's per-leaf sort)\n"
            "out of core:        [--index octree] [--memory-budget SIZE] [--device-budget SIZE] [--frames N]\n"
            "                    [--frames-out DIR] [--orbit] [--feedback on|off]; --volume STORE (a brick\n"
            "                    store directory made by sylva-store build) always renders out of core\n"
@@ -144,6 +146,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--index") o.index = one_of(a, value(), {"bih", "kd", "kd-vidal", "kd-binned", "implicit-kd", "dda", "octree", "none"});
         else if (a == "--animate") o.animate = static_cast<std::uint32_t>(number(a, value(), 1, 100000));
         else if (a == "--update") o.update = one_of(a, value(), {"refit", "rebuild"});
+        else if (a == "--order") o.order = one_of(a, value(), {"exact", "leaf"});
         else if (a == "--brick") o.brick = static_cast<std::uint32_t>(std::stoul(one_of(a, value(), {"16", "32"})));
         else if (a == "--lod-pixels") o.lod_pixels = static_cast<float>(number(a, value(), 1e-3, 1e4));
         else if (a == "--cut-nodes") o.cut_nodes = static_cast<std::uint32_t>(number(a, value(), 1, 4294967295.0));

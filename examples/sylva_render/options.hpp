@@ -22,6 +22,10 @@ struct Options {
                                      ///< octree for --particles or --count (cpu or vulkan))
     std::uint32_t animate = 0;       ///< --animate N: move the particles for N frames (kd_particles_scene.hpp)
     std::string update = "refit";    ///< --update refit|rebuild: how the index follows the motion per frame
+    /// --order exact|leaf (particles): exact = every --index through the generic element kernel
+    /// (sylva/render/elements.hpp; (t0, index) order, the same image from bih, kd and octree);
+    /// leaf = each index's own particle integrator (the BIH's per-leaf sort, Kinkelin 4.2)
+    std::string order = "exact";
     std::uint32_t brick = 32;        ///< --brick 16|32: octree brick size
     float lod_pixels = 0.0f;         ///< --lod-pixels P: view-dependent octree cut (0: full resolution)
     std::uint32_t cut_nodes = 1u << 20;  ///< --cut-nodes N: node budget of the octree cut

@@ -24,6 +24,7 @@ inline std::vector<double>& repeat_frame_ms() {
 
 struct Stats {
     std::string index = "bih", backend, device, input;
+    std::string order;  ///< particles: --order exact|leaf (the JSON key \"order\"; empty for volumes: not written)
     std::size_t elements = 0, nodes = 0, leaves = 0, bytes = 0, errors = 0;
     std::uint32_t max_depth = 0, heatmap_peak = 0, width = 0, height = 0;
     double build_ms = 0, encode_ms = 0, render_ms = 0, rays_per_s = 0, single_child_percent = 0, steps_mean = 0;
@@ -305,6 +306,7 @@ struct Stats {
             << ", \"rays_per_s_median\": " << rays_per_s_median() << ", \"frame_ms\": " << frame_ms_json()
             << ", \"camera\": " << quoted(camera) << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max
             << ", \"visible_pixels\": " << visible_pixels << ", \"errors\": " << errors;
+        if (!order.empty()) out << ", \"order\": " << quoted(order);
         if (volume.present) {
             const VolumeRows& v = volume;
             out << ", \"mode\": " << quoted(v.mode) << ", \"value_range\": [" << v.range_lo << ", " << v.range_hi
