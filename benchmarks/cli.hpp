@@ -6,6 +6,7 @@
 #define SYLVA_BENCH_CLI_HPP
 
 #include <cstddef>
+#include <cstdint>
 #include <cstdlib>
 #include <iostream>
 #include <optional>
@@ -56,6 +57,36 @@ inline std::string value_list(const std::set<std::string>& words) {
     std::string list;
     for (const std::string& w : words) list += (list.empty() ? "" : "|") + w;
     return list;
+}
+
+/// Why `text` is not an image size "WxH" with both in 1..max; empty when it is one (then in w, h).
+inline std::string read_size(const std::string& text, std::uint32_t& w, std::uint32_t& h, std::uint32_t max) {
+    std::size_t x = text.find('x');
+    auto side = [&](const std::string& part, std::uint32_t& out) {
+        if (part.empty() || part.find_first_not_of("0123456789") != std::string::npos || part.size() > 9) return false;
+        unsigned long v = std::stoul(part);
+        out = static_cast<std::uint32_t>(v);
+        return v >= 1 && v <= max;
+    };
+    if (x == std::string::npos || !side(text.substr(0, x), w) || !side(text.substr(x + 1), h))
+        return "'" + text + "' is not WxH with both in 1.." + std::to_string(max) + " (e.g. 320x240)";
+    return std::string();
+}
+
+/// Adds `name` WxH (each side 1..max) writing `w` and `h`; its default shown is their values.
+inline CLI::Option* add_size(CLI::App& app, const std::string& name, std::uint32_t& w, std::uint32_t& h,
+                             const std::string& description, std::uint32_t max = 8192) {
+    return app
+        .add_option_function<std::string>(
+            name, [&w, &h, max](const std::string& v) { read_size(v, w, h, max); }, description)
+        ->type_name("WxH")
+        ->default_str(std::to_string(w) + "x" + std::to_string(h))
+        ->check(CLI::Validator(
+            [max](std::string& v) {
+                std::uint32_t a = 0, b = 0;
+                return read_size(v, a, b, max);
+            },
+            ""));
 }
 
 /// A CLI11 check: every comma-separated word of the value is one of `allowed`.

@@ -19,6 +19,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,49 +57,46 @@ struct Options {
     bool shading = false;
 };
 
-const char* usage() {
-    return "usage: sylva-octree-bench [--data DIR] [--case NAME|all|procedural] [--size WxH] [--runs N]\n"
-           "                          [--threads N] [--brick 16|32] [--lod-pixels P] [--cut-nodes N]\n"
-           "                          [--iso V] [--shading] [--json FILE]\n"
-           "  The bricked octree (Gobbetti et al.) against the reference marcher: the full-resolution\n"
-           "  cut's pixels differing (0 expected), the view cut's PSNR and rays/s against the marcher.\n"
-           "  --case: aneurism, bonsai, engine, lobster, all (default) or procedural (no data needed).\n"
-           "Exit status: 0 on success, 1 on errors (a missing volume names its path), 2 on bad usage.\n";
-}
-
-float parse_float(const std::string& opt, const std::string& v, float lo, float hi) {
-    char* end = nullptr;
-    float f = std::strtof(v.c_str(), &end);
-    if (v.empty() || *end != '\0' || !(f >= lo && f <= hi))
-        throw bench_cli::UsageError(opt + ": '" + v + "' is not a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    return f;
-}
-
-Options parse(int argc, char** argv) {
-    Options o;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        auto value = [&] { return bench_cli::value_of(i, argc, argv); };
-        if (a == "--data") o.data = value();
-        else if (a == "--json") o.json = value();
-        else if (a == "--case")
-            o.only = bench_cli::one_of(a, value(), {"aneurism", "bonsai", "engine", "lobster", "all", "procedural"});
-        else if (a == "--size") {
-            std::string v = value();
-            std::size_t x = v.find('x');
-            if (x == std::string::npos) throw bench_cli::UsageError("--size: '" + v + "' is not WxH");
-            o.width = std::uint32_t(bench_cli::parse_count("--size width", v.substr(0, x), 8192));
-            o.height = std::uint32_t(bench_cli::parse_count("--size height", v.substr(x + 1), 8192));
-        } else if (a == "--runs") o.runs = bench_cli::parse_count(a, value(), 100);
-        else if (a == "--threads") o.threads = bench_cli::parse_count(a, value(), 1024);
-        else if (a == "--brick") o.brick = std::uint32_t(std::stoul(bench_cli::one_of(a, value(), {"16", "32"})));
-        else if (a == "--lod-pixels") o.lod_pixels = parse_float(a, value(), 1e-3f, 1e4f);
-        else if (a == "--cut-nodes") o.cut_nodes = std::uint32_t(bench_cli::parse_count(a, value(), 0xFFFFFFFFu));
-        else if (a == "--iso") o.iso = parse_float(a, value(), 0.0f, 1.0f);
-        else if (a == "--shading") o.shading = true;
-        else throw bench_cli::UsageError("unknown option '" + a + "'");
-    }
-    return o;
+/// The command line, bound to `o`.
+std::unique_ptr<CLI::App> make_app(Options& o) {
+    auto app = std::make_unique<CLI::App>(
+        "sylva-octree-bench: the bricked octree (Gobbetti et al.) against the reference marcher: the "
+        "full-resolution cut's pixels differing (0 expected), the view cut's PSNR and rays/s against the marcher",
+        "sylva-octree-bench");
+    app->footer("Exit status: 0 on success, 1 on errors (a missing volume names its path), 2 on bad usage.");
+    app->add_option("--data", o.data, "folder with the volumes")->type_name("DIR")->capture_default_str();
+    app->add_option("--case", o.only,
+                    "aneurism, bonsai, engine, lobster, all of them, or procedural (Marschner-Lobb, no data needed)")
+        ->type_name("NAME")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"aneurism", "bonsai", "engine", "lobster", "all", "procedural"}));
+    bench_cli::add_size(*app, "--size", o.width, o.height, "image size");
+    app->add_option("--runs", o.runs, "renders per impl, interleaved; medians are reported")
+        ->type_name("N")
+        ->capture_default_str()
+        ->check(CLI::Range(std::size_t{1}, std::size_t{100}));
+    app->add_option("--threads", o.threads, "host threads (default: all)")
+        ->type_name("N")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{1024}));
+    app->add_option("--brick", o.brick, "brick size (voxels a side; border 2)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({16u, 32u}));
+    app->add_option("--lod-pixels", o.lod_pixels, "the view's cut refines while a node's voxel projects larger than P pixels")
+        ->type_name("P")
+        ->capture_default_str()
+        ->check(CLI::Range(1e-3f, 1e4f));
+    app->add_option("--cut-nodes", o.cut_nodes, "node budget of the view's cut")
+        ->type_name("N")
+        ->capture_default_str()
+        ->check(CLI::Range(1u, 0xFFFFFFFFu));
+    app->add_option("--iso", o.iso, "isovalue of the first-hit images (iso-full, iso-lod)")
+        ->type_name("V")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0f, 1.0f));
+    app->add_flag("--shading", o.shading, "Blinn-Phong shading from the gradient");
+    app->add_option("--json", o.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")
+        ->type_name("FILE");
+    return app;
 }
 
 struct DataCase {
@@ -251,12 +250,8 @@ void write_json(const std::string& path, const std::vector<Record>& rs) {
 
 int main(int argc, char** argv) {
     Options o;
-    try {
-        o = parse(argc, argv);
-    } catch (const bench_cli::UsageError& e) {
-        std::cerr << "sylva-octree-bench: " << e.what() << "\n" << usage();
-        return 2;
-    }
+    std::unique_ptr<CLI::App> app = make_app(o);
+    if (std::optional<int> status = bench_cli::parse(*app, argc, argv)) return *status;
     try {
         ThreadPool pool(o.threads);
         std::vector<Record> rec;
