@@ -8,7 +8,9 @@
 // Sets: uniform and clustered spheres (sylva-bench's workloads), the synthetic galaxy
 // (io::synthetic_galaxy), Gaussian RBFs and the dark-matter halo of ../shared/data (when present).
 // The rendered sets (galaxy, RBFs, halo) also record why the octree's particle image and the
-// BIH's differ (image_agreement: both against the exact (t_c, element) order). The octree
+// BIH's differ (image_agreement: both against the exact (t_c, element) order), and compare them
+// with the exact-order images of the generic element kernel over the BIH, the octree and the
+// kd-tree (exact_order_agreement, issue 14: those three must be equal). The octree
 // runs with max_growth 2, 3 and 4, and 3 over the spheres in octree::morton_order (the straddling
 // references' duplication bound, leaf_elements 8); the BIH as bih::Config{} (one trimmed sphere
 // a leaf) and bih::Config::for_queries() with LeafRecords (its fastest query path). Every
@@ -38,7 +40,10 @@
 #include <sylva/io/particles.hpp>
 #include <sylva/octree/elements.hpp>
 #include <sylva/octree/elements_encode.hpp>
+#include <sylva/kdtree/elements.hpp>
+#include <sylva/kdtree/elements_encode.hpp>
 #include <sylva/render/metrics.hpp>
+#include <sylva/render/elements.hpp>
 #include <sylva/render/octree_particles.hpp>
 #include <sylva/render/particles.hpp>
 
@@ -241,6 +246,66 @@ void image_agreement(bench::Report& rep, const std::string& cs, std::span<const 
     rep.add(cs + "/image", "bih-default", "inversions_between_leaves", cross, "pairs");
 }
 
+/// Issue 12's "octree vs BIH: the same image" against the exact-order BIH (issue 14): the generic
+/// element kernel (sylva/render/elements.hpp: every sphere composited in (chord entry t0, record)
+/// order) over the BIH (`dw`, records in its tree order), the element octree and the element
+/// kd-tree, beside the particle integrators (the BIH's per-leaf order, the octree's (t_c, element)
+/// order). The octree and kd-tree of the generic kernel are built over the spheres in the BIH's
+/// order, so that records, and with them the ties at equal t0, are numbered alike; the octree
+/// over the caller's order is recorded too (its ties may order differently). Records PSNR (999
+/// dB: identical) and the fraction of pixels equal bit for bit, at alpha_stop 2 and 0.99. Returns
+/// the number of failures: the generic kernel's octree or kd-tree image not equal to the BIH's.
+int exact_order_agreement(bench::Report& rep, const std::string& cs, std::span<const Sphere> s, const bih::Tree& dt,
+                          std::span<const std::uint32_t> dw, std::span<const std::uint32_t> ow,
+                          std::span<const std::uint32_t> orec, const CameraFrame& cam, std::uint32_t width,
+                          std::uint32_t height, ThreadPool& pool) {
+    std::vector<Sphere> in_order;
+    in_order.reserve(dt.order.size());
+    for (std::uint32_t i : dt.order) in_order.push_back(s[i]);
+    std::span<const Sphere> io_span(in_order);
+    std::vector<std::uint32_t> brec = pack_elements(s, std::span<const std::uint32_t>(dt.order));
+    std::vector<std::uint32_t> erec = pack_elements(io_span), crec = pack_elements(s);
+    std::vector<std::uint32_t> eow = octree::encode_elements(octree::build_elements(io_span, octree::ElementConfig{}, pool));
+    std::vector<std::uint32_t> cow = octree::encode_elements(octree::build_elements(s, octree::ElementConfig{}, pool));
+    std::vector<std::uint32_t> ekw = kdtree::encode_elements(kdtree::build_elements(io_span, kdtree::ElementConfig{}, pool));
+    auto db = [](const Frame& a, const Frame& b) { return std::min(psnr(a, b), 999.0); };
+    auto equal_px = [](const Frame& a, const Frame& b) {
+        std::size_t k = 0;
+        for (std::size_t i = 0; i < a.rgba.size(); ++i) k += a.rgba[i] == b.rgba[i];
+        return a.rgba.empty() ? 1.0 : double(k) / double(a.rgba.size());
+    };
+    int failures = 0;
+    for (float stop : {2.0f, 0.99f}) {
+        ParticleRenderConfig rc;
+        rc.alpha_stop = stop;
+        std::string tag = stop > 1.0f ? "" : "_stop099";
+        Frame be = render_elements_cpu<Sphere, BihIndex>(dw, brec, cam, width, height, pool, rc);
+        Frame oe = render_elements_cpu<Sphere, OctreeIndex>(eow, erec, cam, width, height, pool, rc);
+        Frame ke = render_elements_cpu<Sphere, KdIndex>(ekw, erec, cam, width, height, pool, rc);
+        Frame oc = render_elements_cpu<Sphere, OctreeIndex>(cow, crec, cam, width, height, pool, rc);
+        Frame bl = render_particles_cpu(dw, brec, cam, width, height, pool, rc);
+        Frame ol = render_particles_octree_cpu(ow, orec, cam, width, height, pool, rc);
+        rep.add(cs + "/exact-image", "octree-exact-vs-bih-exact", "psnr" + tag, db(be, oe), "dB");
+        rep.add(cs + "/exact-image", "octree-exact-vs-bih-exact", "equal_fraction" + tag, equal_px(be, oe), "pixels");
+        rep.add(cs + "/exact-image", "kd-exact-vs-bih-exact", "psnr" + tag, db(be, ke), "dB");
+        rep.add(cs + "/exact-image", "kd-exact-vs-bih-exact", "equal_fraction" + tag, equal_px(be, ke), "pixels");
+        rep.add(cs + "/exact-image", "octree-exact-caller-order-vs-bih-exact", "psnr" + tag, db(be, oc), "dB");
+        rep.add(cs + "/exact-image", "octree-exact-caller-order-vs-bih-exact", "equal_fraction" + tag, equal_px(be, oc),
+                "pixels");
+        rep.add(cs + "/exact-image", "bih-leaf-vs-bih-exact", "psnr" + tag, db(be, bl), "dB");
+        rep.add(cs + "/exact-image", "bih-leaf-vs-bih-exact", "equal_fraction" + tag, equal_px(be, bl), "pixels");
+        rep.add(cs + "/exact-image", "octree-g3-vs-bih-exact", "psnr" + tag, db(be, ol), "dB");
+        rep.add(cs + "/exact-image", "octree-g3-vs-bih-leaf", "psnr" + tag, db(bl, ol), "dB");
+        for (const Frame* f : {&oe, &ke})
+            if (equal_px(be, *f) != 1.0) {
+                std::cout << cs << ": the generic kernel's " << (f == &oe ? "octree" : "kd-tree")
+                          << " image differs from the BIH's (alpha_stop " << stop << ")\n";
+                ++failures;
+            }
+    }
+    return failures;
+}
+
 /// Frame time of the particle kernels on the Vulkan device (lavapipe here), BIH and element
 /// octree, same camera and records as the host frames (the dispatch's GPU time, median).
 void vulkan_frames([[maybe_unused]] bench::Report& rep, [[maybe_unused]] const std::string& cs,
@@ -307,6 +372,7 @@ int run_set(bench::Report& rep, const std::string& cs, const std::vector<Sphere>
         octree::ElementTree et = octree::build_elements(s, octree::ElementConfig{}, pool);
         std::vector<std::uint32_t> ow = octree::encode_elements(et);
         image_agreement(rep, cs, dw, brec, dt.order, ow, orec, cam, 320, 240, pool);
+        failures += exact_order_agreement(rep, cs, s, dt, dw, ow, orec, cam, 320, 240, pool);
         vulkan_frames(rep, cs, vkctx, dw, brec, ow, orec, cam, a.runs);
     }
     // The default configuration also over the spheres in Morton order (octree::morton_order),
