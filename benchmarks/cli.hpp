@@ -1,7 +1,7 @@
 // benchmarks/cli.hpp -- what the benchmarks' CLI11 command lines (Debian libcli11-dev) share: one
 // parse that prints --help on stdout (exit status 0) and bad usage as the message plus a hint on
-// stderr (exit status 2), the usage error the benchmarks throw for checks CLI11 cannot express
-// (reported the same way), and a check for comma-separated lists of known words.
+// stderr (exit status 2), the usage error for checks made after parsing (reported the same way), image
+// sizes WxH, and a number range that refuses NaN.
 #ifndef SYLVA_BENCH_CLI_HPP
 #define SYLVA_BENCH_CLI_HPP
 
@@ -89,18 +89,17 @@ inline CLI::Option* add_size(CLI::App& app, const std::string& name, std::uint32
             ""));
 }
 
-/// A CLI11 check: every comma-separated word of the value is one of `allowed`.
-inline CLI::Validator words_in(const std::set<std::string>& allowed) {
-    std::string list;
-    for (const std::string& a : allowed) list += (list.empty() ? "" : ",") + a;
+/// A CLI11 check: a number in [lo, hi]; unlike CLI::Range it refuses NaN.
+inline CLI::Validator number_in(double lo, double hi) {
+    std::ostringstream range;
+    range << "in [" << lo << ", " << hi << "]";
     return CLI::Validator(
-        [allowed](std::string& value) -> std::string {
-            std::stringstream ss(value);
-            for (std::string word; std::getline(ss, word, ',');)
-                if (!allowed.count(word)) return "'" + word + "' is not one of " + value_list(allowed);
+        [lo, hi, text = range.str()](std::string& v) {
+            double x = 0.0;
+            if (!CLI::detail::lexical_cast(v, x) || !(x >= lo && x <= hi)) return "'" + v + "' is not a number " + text;
             return std::string();
         },
-        "{" + list + "},...");
+        "FLOAT " + range.str());
 }
 
 /// The value that follows option argv[i]; advances i past it. (Hand-written parsers not yet on CLI11.)

@@ -132,7 +132,7 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
     app->add_option("--iso", o.iso, "isovalue, a density in [0, 1]")
         ->type_name("V")
         ->capture_default_str()
-        ->check(CLI::Range(0.0f, 1.0f));
+        ->check(bench_cli::number_in(0.0, 1.0));
     app->add_option("--json", o.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")
         ->type_name("FILE");
     app->add_option("--threads", o.threads, "worker threads (default: hardware concurrency)")

@@ -84,7 +84,7 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
     app->add_option("--lod-pixels", o.lod_pixels, "the view's cut refines while a node's voxel projects larger than P pixels")
         ->type_name("P")
         ->capture_default_str()
-        ->check(CLI::Range(1e-3f, 1e4f));
+        ->check(bench_cli::number_in(1e-3, 1e4));
     app->add_option("--cut-nodes", o.cut_nodes, "node budget of the view's cut")
         ->type_name("N")
         ->capture_default_str()
@@ -92,7 +92,7 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
     app->add_option("--iso", o.iso, "isovalue of the first-hit images (iso-full, iso-lod)")
         ->type_name("V")
         ->capture_default_str()
-        ->check(CLI::Range(0.0f, 1.0f));
+        ->check(bench_cli::number_in(0.0, 1.0));
     app->add_flag("--shading", o.shading, "Blinn-Phong shading from the gradient");
     app->add_option("--json", o.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")
         ->type_name("FILE");

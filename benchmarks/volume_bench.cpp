@@ -397,16 +397,11 @@ int run(const Options& o) {
 
 int main(int argc, char** argv) {
     using namespace volume_bench;
+    Options o;
+    std::unique_ptr<CLI::App> app = make_app(o);
+    if (std::optional<int> status = bench_cli::parse(*app, argc, argv)) return *status;
     try {
-        Options o = parse_options(argc, argv);
-        if (o.help) {
-            std::cout << usage();
-            return 0;
-        }
         return run(o);
-    } catch (const UsageError& e) {
-        std::cerr << "sylva-volume-bench: " << e.what() << "\n" << usage();
-        return 2;
     } catch (const std::exception& e) {
         std::cerr << "sylva-volume-bench: " << e.what() << "\n";
         return 1;

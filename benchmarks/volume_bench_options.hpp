@@ -2,10 +2,8 @@
 #ifndef SYLVA_VOLUME_BENCH_OPTIONS_HPP
 #define SYLVA_VOLUME_BENCH_OPTIONS_HPP
 
-#include <cmath>
 #include <cstdint>
-#include <cstdlib>
-#include <stdexcept>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -16,10 +14,6 @@
 #endif
 
 namespace volume_bench {
-
-using bench_cli::one_of;
-using bench_cli::parse_count;
-using bench_cli::UsageError;
 
 struct Options {
     std::string data = SYLVA_VOLUME_BENCH_DATA;
@@ -35,95 +29,69 @@ struct Options {
     bool shading = false;
     bool float_nodes = false;
     std::vector<float> factors{1.0f, 1.5f, 2.0f};
-    bool help = false;
 };
 
-inline const char* usage() {
-    return "usage: sylva-volume-bench [--data DIR] [--json FILE] [--size WxH] [--runs N] [--threads N]\n"
-           "                          [--backend cpu|vulkan|both] [--case engine|aneurism|lobster|all|procedural]\n"
-           "                          [--images DIR] [--factors 1,1.5,2] [--tf warm|ramp|ct] [--alpha A]\n"
-           "                          [--shading] [--float-nodes] [--help]\n"
-           "  Image quality and speed of BIH-DVR (Kinkelin 4.3, 6.2) against the reference marcher.\n"
-           "  --data DIR      folder with the volumes (default " SYLVA_VOLUME_BENCH_DATA ")\n"
-           "  --json FILE     every figure as a JSON array of {case, impl, metric, value, unit}\n"
-           "  --size WxH      image size (default 320x240)\n"
-           "  --runs N        timed renders per image; medians are reported (default 3)\n"
-           "  --threads N     host threads (default: all)\n"
-           "  --backend B     cpu (host threads), vulkan (the Vulkan device: lavapipe here) or both\n"
-           "  --case C        engine, aneurism, lobster (spacing 1,1,1.4), all of them (default), or\n"
-           "                  procedural (a 64^3 Marschner-Lobb volume; needs no data: the smoke test)\n"
-           "  --images DIR    write volume_<case>_<renderer>_x<factor>.png (reference, single, multi,\n"
-           "                  heat = single-sample iterator steps) into DIR\n"
-           "  --factors LIST  resampling factors of the BIH source grid (default 1,1.5,2)\n"
-           "  --tf T          warm (default): low base opacity (Kinkelin's Fig. 5), alpha 0 at density 0.1\n"
-           "                  rising linearly to A at 1, colour dark red -> orange -> yellow -> white;\n"
-           "                  ramp: sylva-render's ramp preset (alpha 0 at 0.1 -> 0.5 at 1, one colour);\n"
-           "                  ct: the ct_bone_tissue preset (faint tissue, nearly opaque bone)\n"
-           "  --alpha A       the warm TF's alpha at density 1, per unit (voxel) length; default per data\n"
-           "                  set: engine 0.04, aneurism 0.4, lobster 0.15, procedural 0.1\n"
-           "  --shading       Blinn-Phong shading from the gradient (default off, as Kinkelin's Fig. 5)\n"
-           "  --float-nodes   also render the same LoDs encoded with 12-byte float-plane nodes\n"
-           "                  (single-f32, multi-f32): isolates the error of the 16-bit planes\n"
-           "Exit status: 0 on success, 1 on errors (a missing volume names its path), 2 on bad usage.\n";
-}
-
-/// "WxH" with both in 1..8192.
-inline void parse_size(const std::string& text, Options& o) {
-    std::size_t x = text.find('x');
-    if (x == std::string::npos) throw UsageError("--size: '" + text + "' is not WxH (e.g. 320x240)");
-    o.width = static_cast<std::uint32_t>(parse_count("--size width", text.substr(0, x), 8192));
-    o.height = static_cast<std::uint32_t>(parse_count("--size height", text.substr(x + 1), 8192));
-}
-
-/// A comma-separated list of factors, each finite in [0.25, 4].
-inline std::vector<float> parse_factors(const std::string& text) {
-    std::vector<float> out;
-    std::size_t begin = 0;
-    while (begin <= text.size()) {
-        std::size_t end = text.find(',', begin);
-        std::string item = text.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
-        char* stop = nullptr;
-        float f = std::strtof(item.c_str(), &stop);
-        if (item.empty() || *stop != '\0' || !std::isfinite(f) || f < 0.25f || f > 4.0f)
-            throw UsageError("--factors: '" + item + "' is not a number in 0.25..4");
-        out.push_back(f);
-        if (end == std::string::npos) break;
-        begin = end + 1;
-    }
-    return out;
-}
-
-/// An opacity in (0, 1].
-inline float parse_alpha(const std::string& text) {
-    char* stop = nullptr;
-    float a = std::strtof(text.c_str(), &stop);
-    if (text.empty() || *stop != '\0' || !(a > 0.0f && a <= 1.0f))
-        throw UsageError("--alpha: '" + text + "' is not a number in (0, 1]");
-    return a;
-}
-
-inline Options parse_options(int argc, char** argv) {
-    Options o;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        auto value = [&] { return bench_cli::value_of(i, argc, argv); };
-        if (a == "--data") o.data = value();
-        else if (a == "--json") o.json = value();
-        else if (a == "--size") parse_size(value(), o);
-        else if (a == "--runs") o.runs = parse_count(a, value(), 100);
-        else if (a == "--threads") o.threads = parse_count(a, value(), 1024);
-        else if (a == "--backend") o.backend = one_of(a, value(), {"cpu", "vulkan", "both"});
-        else if (a == "--case") o.only = one_of(a, value(), {"engine", "aneurism", "lobster", "all", "procedural"});
-        else if (a == "--images") o.images = value();
-        else if (a == "--factors") o.factors = parse_factors(value());
-        else if (a == "--tf") o.tf = one_of(a, value(), {"warm", "ramp", "ct"});
-        else if (a == "--alpha") o.alpha = parse_alpha(value());
-        else if (a == "--shading") o.shading = true;
-        else if (a == "--float-nodes") o.float_nodes = true;
-        else if (a == "--help" || a == "-h") o.help = true;
-        else throw UsageError("unknown option '" + a + "'");
-    }
-    return o;
+/// The command line, bound to `o`.
+inline std::unique_ptr<CLI::App> make_app(Options& o) {
+    auto app = std::make_unique<CLI::App>(
+        "sylva-volume-bench: image quality and speed of BIH-DVR (Kinkelin 4.3, 6.2) against the reference marcher",
+        "sylva-volume-bench");
+    app->footer(
+        "--tf T: warm (default): low base opacity (Kinkelin's Fig. 5), alpha 0 at density 0.1 rising\n"
+        "        linearly to A at 1, colour dark red -> orange -> yellow -> white;\n"
+        "        ramp: sylva-render's ramp preset (alpha 0 at 0.1 -> 0.5 at 1, one colour);\n"
+        "        ct: the ct_bone_tissue preset (faint tissue, nearly opaque bone).\n"
+        "--alpha A defaults per data set: engine 0.04, aneurism 0.4, lobster 0.15, procedural 0.1.\n"
+        "Exit status: 0 on success, 1 on errors (a missing volume names its path), 2 on bad usage.");
+    app->add_option("--data", o.data, "folder with the volumes")->type_name("DIR")->capture_default_str();
+    app->add_option("--json", o.json, "every figure as a JSON array of {case, impl, metric, value, unit}")
+        ->type_name("FILE");
+    bench_cli::add_size(*app, "--size", o.width, o.height, "image size");
+    app->add_option("--runs", o.runs, "timed renders per image; medians are reported")
+        ->type_name("N")
+        ->capture_default_str()
+        ->check(CLI::Range(std::size_t{1}, std::size_t{100}));
+    app->add_option("--threads", o.threads, "host threads (default: all)")
+        ->type_name("N")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{1024}));
+    app->add_option("--backend", o.backend, "cpu (host threads), vulkan (the Vulkan device: lavapipe here) or both")
+        ->type_name("B")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"cpu", "vulkan", "both"}));
+    app->add_option("--case", o.only,
+                    "engine, aneurism, lobster (spacing 1,1,1.4), all of them, or procedural (a 64^3 "
+                    "Marschner-Lobb volume; needs no data: the smoke test)")
+        ->type_name("C")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"engine", "aneurism", "lobster", "all", "procedural"}));
+    app->add_option("--images", o.images,
+                    "write volume_<case>_<renderer>_x<factor>.png (reference, single, multi, heat = single-sample "
+                    "iterator steps) into DIR")
+        ->type_name("DIR");
+    app->add_option("--factors", o.factors, "resampling factors of the BIH source grid, each in 0.25..4")
+        ->type_name("LIST")
+        ->capture_default_str()
+        ->delimiter(',')
+        ->check(bench_cli::number_in(0.25, 4.0));
+    app->add_option("--tf", o.tf, "transfer function (below)")
+        ->type_name("T")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"warm", "ramp", "ct"}));
+    app->add_option("--alpha", o.alpha, "the warm TF's alpha at density 1, per unit (voxel) length, in (0, 1]")
+        ->type_name("A")
+        ->check(CLI::Validator(
+            [](std::string& v) {
+                float a = 0.0f;
+                return CLI::detail::lexical_cast(v, a) && a > 0.0f && a <= 1.0f
+                           ? std::string()
+                           : "'" + v + "' is not a number in (0, 1]";
+            },
+            ""));
+    app->add_flag("--shading", o.shading, "Blinn-Phong shading from the gradient (default off, as Kinkelin's Fig. 5)");
+    app->add_flag("--float-nodes", o.float_nodes,
+                  "also render the same LoDs encoded with 12-byte float-plane nodes (single-f32, multi-f32): "
+                  "isolates the error of the 16-bit planes");
+    return app;
 }
 
 }  // namespace volume_bench
