@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -38,6 +39,7 @@
 #endif
 
 #include "bench.hpp"
+#include "cli.hpp"
 
 using namespace sylva;
 
@@ -51,7 +53,9 @@ struct Args {
     bool feedback = true;
 };
 
-std::size_t bytes_arg(const std::string& v) {
+/// Why `v` is not a byte count (a number with an optional K, M or G suffix, powers of 1024, at
+/// least 1 byte); empty when it is one (then in `bytes`).
+std::string read_bytes(const std::string& v, std::size_t& bytes) {
     double scale = 1.0;
     std::string d = v;
     char u = d.empty() ? '0' : static_cast<char>(std::toupper(static_cast<unsigned char>(d.back())));
@@ -59,41 +63,77 @@ std::size_t bytes_arg(const std::string& v) {
         scale = u == 'K' ? 1024.0 : u == 'M' ? 1048576.0 : 1073741824.0;
         d.pop_back();
     }
-    return static_cast<std::size_t>(std::stod(d) * scale);
+    double x = 0.0;
+    if (!CLI::detail::lexical_cast(d, x) || !(x * scale >= 1.0 && x * scale < 1.8e19))
+        return "'" + v + "' is not a size in bytes (K/M/G suffixes)";
+    bytes = static_cast<std::size_t>(x * scale);
+    return std::string();
 }
 
-Args parse(int argc, char** argv) {
-    Args a;
-    for (int i = 1; i < argc; ++i) {
-        std::string k = argv[i];
-        auto v = [&]() -> std::string {
-            if (i + 1 >= argc) throw std::invalid_argument(k + " needs a value");
-            return argv[++i];
-        };
-        if (k == "--source") a.source = v();
-        else if (k == "--volume") a.volume = v();
-        else if (k == "--frames") a.frames = static_cast<std::uint32_t>(std::stoul(v()));
-        else if (k == "--memory-budget") a.memory_budget = bytes_arg(v());
-        else if (k == "--device-budget") a.device_budget = bytes_arg(v());
-        else if (k == "--brick") a.brick = static_cast<std::uint32_t>(std::stoul(v()));
-        else if (k == "--lod-pixels") a.lod_pixels = std::stof(v());
-        else if (k == "--feedback") a.feedback = v() == "on";
-        else if (k == "--threads") a.threads = static_cast<std::uint32_t>(std::stoul(v()));
-        else if (k == "--json") a.json = v();
-        else if (k == "--size") {
-            std::string s = v();
-            auto x = s.find('x');
-            if (x == std::string::npos) throw std::invalid_argument("--size WxH");
-            a.width = static_cast<std::uint32_t>(std::stoul(s.substr(0, x)));
-            a.height = static_cast<std::uint32_t>(std::stoul(s.substr(x + 1)));
-        } else if (k == "--quick") {
-            a.volume = "procedural:ml:64", a.frames = 12, a.width = 96, a.height = 72, a.brick = 16;
-            a.memory_budget = 4 << 20, a.device_budget = 2 << 20;
-        } else throw std::invalid_argument("unknown option " + k);
-    }
-    if (a.source != "tree" && a.source != "store") throw std::invalid_argument("--source tree|store");
-    if (a.frames < 1 || a.width < 1 || a.height < 1) throw std::invalid_argument("--frames and --size must be >= 1");
-    return a;
+/// Adds the byte-count option `name` (K/M/G suffixes) writing `bytes`.
+void add_bytes(CLI::App& app, const std::string& name, std::size_t& bytes, const std::string& description) {
+    app.add_option_function<std::string>(
+           name, [&bytes](const std::string& v) { read_bytes(v, bytes); }, description)
+        ->type_name("BYTES")
+        ->default_str(std::to_string(bytes >> 20) + "M")
+        ->check(CLI::Validator(
+            [](std::string& v) {
+                std::size_t b = 0;
+                return read_bytes(v, b);
+            },
+            ""));
+}
+
+/// The command line, bound to `a`; `quick` for --quick, applied by apply_quick after parsing.
+std::unique_ptr<CLI::App> make_app(Args& a, bool& quick) {
+    auto app = std::make_unique<CLI::App>(
+        "sylva-residency-bench: the out-of-core bricked octree over a scripted orbit: frame times, bricks "
+        "loaded, cache hit rates, peak RSS against the budgets, PSNR of the held last view",
+        "sylva-residency-bench");
+    app->footer(
+        "--source tree builds the octree in core (TreeBrickSource: the RSS then includes the whole tree,\n"
+        "so only the store's RSS measures the budgets); --source store reads a brick store made by\n"
+        "sylva-store build (needs sylva::store). --quick: procedural:ml:64, 12 frames, 96x72, brick 16,\n"
+        "budgets 4M and 2M; options given beside it keep their values.\n"
+        "Exit status: 0 on success, 1 on errors, 2 on bad usage.");
+    app->add_option("--source", a.source, "tree (built in core) or store (a brick store)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"tree", "store"}));
+    app->add_option("--volume", a.volume, "procedural:ml:N (Marschner-Lobb N^3) for tree, a store directory for store")
+        ->capture_default_str();
+    app->add_option("--frames", a.frames, "frames of the orbit")->type_name("N")->capture_default_str()->check(CLI::Range(1u, 1000000u));
+    add_bytes(*app, "--memory-budget", a.memory_budget, "host brick cache budget (K/M/G suffixes)");
+    add_bytes(*app, "--device-budget", a.device_budget, "device brick pool budget (K/M/G suffixes)");
+    bench_cli::add_size(*app, "--size", a.width, a.height, "image size");
+    app->add_option("--brick", a.brick, "brick size of the in-core tree (16 or 32)")
+        ->type_name("B")
+        ->capture_default_str()
+        ->check(CLI::Range(1u, 1024u));
+    app->add_option("--lod-pixels", a.lod_pixels, "refine while a node's voxel projects larger than P pixels")
+        ->type_name("P")
+        ->capture_default_str()
+        ->check(bench_cli::number_in(1e-3, 1e4));
+    app->add_option_function<std::string>(
+           "--feedback", [&a](const std::string& v) { a.feedback = v == "on"; },
+           "visibility feedback: refine only nodes a ray reached in the previous frame")
+        ->default_str("on")
+        ->check(CLI::IsMember({"on", "off"}));
+    app->add_option("--threads", a.threads, "host threads (default: all)")->type_name("T")->check(CLI::Range(1u, 1024u));
+    app->add_option("--json", a.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")
+        ->type_name("FILE");
+    app->add_flag("--quick", quick, "the smoke configuration (below)");
+    return app;
+}
+
+/// --quick's values for the options not given on the command line.
+void apply_quick(const CLI::App& app, Args& a) {
+    auto unset = [&](const char* name) { return app.count(name) == 0; };
+    if (unset("--volume")) a.volume = "procedural:ml:64";
+    if (unset("--frames")) a.frames = 12;
+    if (unset("--size")) a.width = 96, a.height = 72;
+    if (unset("--brick")) a.brick = 16;
+    if (unset("--memory-budget")) a.memory_budget = 4 << 20;
+    if (unset("--device-budget")) a.device_budget = 2 << 20;
 }
 
 std::size_t peak_rss() {
@@ -275,12 +315,10 @@ int run(const Args& a, const S& src, const std::string& case_name, bench::Report
 
 int main(int argc, char** argv) {
     Args a;
-    try {
-        a = parse(argc, argv);
-    } catch (const std::exception& e) {
-        std::cerr << "sylva-residency-bench: " << e.what() << "\n";
-        return 2;
-    }
+    bool quick = false;
+    std::unique_ptr<CLI::App> app = make_app(a, quick);
+    if (std::optional<int> status = bench_cli::parse(*app, argc, argv)) return *status;
+    if (quick) apply_quick(*app, a);
     try {
         bench::Report rep;
         if (a.source == "tree") {
