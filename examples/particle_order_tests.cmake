@@ -15,3 +15,5 @@ endforeach()
 if(SYLVA_WITH_VULKAN)
   set_tests_properties(examples.sylva_render.particle_order_vulkan PROPERTIES LABELS "plugins;vulkan")
 endif()
+sylva_render_test(particle_order_volume RC 2 ERR "--order exact.leaf orders particles, not volumes"
+  ARGS --volume procedural --order leaf -o ${_out}/x.png)

@@ -218,6 +218,10 @@ Options parse(int argc, char** argv) {
                 if (std::string(argv[i]) == opt)
                     throw std::invalid_argument(std::string(opt) + " applies to the bricked octree of volumes, not to particles");
     }
+    if (o.volume_input())
+        for (int i = 1; i < argc; ++i)
+            if (std::string(argv[i]) == "--order")
+                throw std::invalid_argument("--order exact|leaf orders particles, not volumes");
     if (!o.octree_index()) {
         for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
             for (int i = 1; i < argc; ++i)
