@@ -23,7 +23,8 @@
 #include <functional>
 #include <iostream>
 #include <memory>
-#include <sstream>
+#include <optional>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,7 @@
 #endif
 
 #include "bench.hpp"
+#include "cli.hpp"
 
 using namespace sylva;
 using Clock = std::chrono::steady_clock;
@@ -393,35 +395,62 @@ void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Rep
     }
 }
 
-std::vector<std::string> split(const std::string& s) {
-    std::vector<std::string> out;
-    std::stringstream ss(s);
-    for (std::string p; std::getline(ss, p, ',');)
-        if (!p.empty()) out.push_back(p);
-    return out;
+/// The command line, bound to `o`; `quick` for --quick, applied by apply_quick after parsing.
+std::unique_ptr<CLI::App> make_app(Options& o, bool& quick) {
+    auto app = std::make_unique<CLI::App>(
+        "sylva-store-bench: the out-of-core brick store measured: codecs, LMDB against HDF5 chunked datasets, "
+        "the streamed build against a dd-like sequential write, cold and warm reads",
+        "sylva-store-bench");
+    app->footer(
+        "Sections: codecs (encode/decode rate and size per codec and level, one thread), backends (the\n"
+        "same zstd-1 bricks in LMDB and, when built with it, an HDF5 chunked dataset; cold and warm\n"
+        "reads), build (the streamed builder per --build-codecs against a dd-like write of as many\n"
+        "bytes, then every brick read cold and warm).\n"
+        "Cases: aneurism (../shared/data), aneurismxK (upsampled by K, float32 slices), mlN\n"
+        "(procedural Marschner-Lobb N^3, float32, generated slice by slice), mlNu16 (quantised to\n"
+        "uint16; ml1024u16 is the issue's 2 GiB volume). --quick: case ml96, one run, unless --cases or\n"
+        "--runs are given. Exit status: 0 on success, 1 on errors (a missing volume), 2 on bad usage.");
+    app->add_option("--cases", o.cases, "comma-separated cases (below)")
+        ->type_name("LIST")
+        ->capture_default_str()
+        ->delimiter(',')
+        ->check(CLI::Validator(
+            [](std::string& v) {
+                static const std::regex known("aneurism|aneurismx[0-9]+(\\.[0-9]+)?|ml[0-9]+(u16)?");
+                return std::regex_match(v, known) ? std::string()
+                                                  : "'" + v + "' is not a case (aneurism, aneurismxK, mlN, mlNu16)";
+            },
+            ""));
+    app->add_option("--sections", o.sections, "comma-separated sections (below)")
+        ->type_name("LIST")
+        ->capture_default_str()
+        ->delimiter(',')
+        ->check(CLI::IsMember({"codecs", "backends", "build"}));
+    app->add_option("--build-codecs", o.build_codecs, "codecs of the build section")
+        ->type_name("LIST")
+        ->capture_default_str()
+        ->delimiter(',')
+        ->check(CLI::IsMember({"zstd-1", "zstd-fast3", "lz4"}));
+    app->add_option("--runs", o.runs, "runs per measurement; medians are reported")
+        ->type_name("N")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1000));
+    app->add_option("--dir", o.dir, "scratch directory for the stores (removed at the end)")
+        ->type_name("DIR")
+        ->capture_default_str();
+    app->add_option("--threads", o.threads, "threads of the builds (default: all)")
+        ->type_name("T")
+        ->check(CLI::Range(1u, 1024u));
+    app->add_option("--json", o.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")
+        ->type_name("FILE");
+    app->add_flag("--quick", quick, "the smoke configuration (below)");
+    return app;
 }
 
-Options parse(int argc, char** argv) {
-    Options o;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        auto value = [&]() -> std::string {
-            if (i + 1 >= argc) throw Error(a + " needs a value");
-            return argv[++i];
-        };
-        if (a == "--cases") o.cases = split(value());
-        else if (a == "--runs") o.runs = std::max(1, std::stoi(value()));
-        else if (a == "--json") o.json = value();
-        else if (a == "--dir") o.dir = value();
-        else if (a == "--sections") o.sections = split(value());
-        else if (a == "--threads") o.threads = unsigned(std::stoul(value()));
-        else if (a == "--build-codecs") o.build_codecs = split(value());
-        else if (a == "--quick") o.cases = {"ml96"}, o.runs = 1;
-        else
-            throw Error("usage: sylva-store-bench [--cases aneurism,aneurismx4,ml256,ml512,ml1024u16] [--sections codecs,backends,build] "
-                        "[--build-codecs zstd-1,zstd-fast3,lz4] [--runs N] [--dir DIR] [--threads T] [--json FILE] [--quick]");
-    }
-    return o;
+/// --quick's values for the options not given on the command line.
+void apply_quick(const CLI::App& app, Options& o) {
+    if (app.count("--cases") == 0) o.cases = {"ml96"};
+    if (app.count("--runs") == 0) o.runs = 1;
 }
 
 bool has(const std::vector<std::string>& v, const char* s) { return std::find(v.begin(), v.end(), s) != v.end(); }
@@ -429,8 +458,12 @@ bool has(const std::vector<std::string>& v, const char* s) { return std::find(v.
 }  // namespace
 
 int main(int argc, char** argv) {
+    Options o;
+    bool quick = false;
+    std::unique_ptr<CLI::App> app = make_app(o, quick);
+    if (std::optional<int> status = bench_cli::parse(*app, argc, argv)) return *status;
+    if (quick) apply_quick(*app, o);
     try {
-        Options o = parse(argc, argv);
         std::filesystem::create_directories(o.dir);
         ThreadPool pool(o.threads);
         bench::Report report;
