@@ -1,29 +1,20 @@
 // benchmarks/cli.hpp -- what the benchmarks' CLI11 command lines (Debian libcli11-dev) share: one
 // parse that prints --help on stdout (exit status 0) and bad usage as the message plus a hint on
-// stderr (exit status 2), the usage error for checks made after parsing (reported the same way), image
-// sizes WxH, and a number range that refuses NaN.
+// stderr (exit status 2), options for image sizes WxH, and a number range that refuses NaN. Used by
+// sylva-tables, -kd-bench, -iso-bench, -octree-bench, -volume-bench, -residency-bench, -store-bench.
 #ifndef SYLVA_BENCH_CLI_HPP
 #define SYLVA_BENCH_CLI_HPP
 
 #include <cstddef>
 #include <cstdint>
-#include <cstdlib>
 #include <iostream>
 #include <optional>
-#include <set>
 #include <sstream>
-#include <stdexcept>
 #include <string>
-#include <vector>
 
 #include <CLI/CLI.hpp>
 
 namespace bench_cli {
-
-/// Bad usage found after parsing: reported like CLI11's own errors, exit status 2.
-struct UsageError : std::runtime_error {
-    using std::runtime_error::runtime_error;
-};
 
 /// Exit status of bad usage.
 inline constexpr int kUsageStatus = 2;
@@ -50,13 +41,6 @@ inline std::optional<int> parse(CLI::App& app, int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         return usage_error(app, e.what());
     }
-}
-
-/// "a|b|c".
-inline std::string value_list(const std::set<std::string>& words) {
-    std::string list;
-    for (const std::string& w : words) list += (list.empty() ? "" : "|") + w;
-    return list;
 }
 
 /// Why `text` is not an image size "WxH" with both in 1..max; empty when it is one (then in w, h).
@@ -100,30 +84,6 @@ inline CLI::Validator number_in(double lo, double hi) {
             return std::string();
         },
         "FLOAT " + range.str());
-}
-
-/// The value that follows option argv[i]; advances i past it. (Hand-written parsers not yet on CLI11.)
-inline std::string value_of(int& i, int argc, char** argv) {
-    if (i + 1 >= argc) throw UsageError(std::string(argv[i]) + " needs a value");
-    return argv[++i];
-}
-
-/// A whole number in 1..max. (Hand-written parsers not yet on CLI11.)
-inline std::size_t parse_count(const std::string& option, const std::string& text, std::size_t max) {
-    char* end = nullptr;
-    unsigned long v = std::strtoul(text.c_str(), &end, 10);
-    if (text.empty() || text[0] == '-' || *end != '\0' || v < 1 || v > max)
-        throw UsageError(option + ": '" + text + "' is not a whole number in 1.." + std::to_string(max));
-    return v;
-}
-
-/// `v` when it is one of `allowed`. (Hand-written parsers not yet on CLI11.)
-inline std::string one_of(const std::string& option, const std::string& v, const std::vector<std::string>& allowed) {
-    for (const std::string& a : allowed)
-        if (v == a) return v;
-    std::string list;
-    for (const std::string& a : allowed) list += (list.empty() ? "" : "|") + a;
-    throw UsageError(option + ": '" + v + "' is not one of " + list);
 }
 
 }  // namespace bench_cli

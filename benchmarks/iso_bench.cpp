@@ -60,7 +60,6 @@
 #include <memory>
 #include <iostream>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
