@@ -77,6 +77,7 @@ private:
 /// as render_kd_dvr_cpu. Throws sylva::Error when the tree's grid is not the volume's.
 inline Frame render_kd_dvr_vulkan(Context& ctx, DeviceGrid& grid, DeviceKdTree& kd, const VolumeRenderParams& p) {
     std::vector<std::uint32_t> params = sylva::detail::pack_dvr(grid.dims(), grid.spacing(), p);
+    grid.sampling().pack(params);
     if (kd.dims() != uvec3(grid.dims()) || kd.spacing() != grid.spacing() || kd.origin() != vec3(0.0f))
         throw Error("vk::render_kd_dvr_vulkan: the kd-tree's grid (dims, spacing or origin 0) is not the volume's");
     params[34] = kd.word_count();

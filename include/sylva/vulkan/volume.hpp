@@ -67,7 +67,8 @@ public:
 
 private:
     static std::span<const std::uint32_t> checked(const GridWords& g) {
-        if (g.words.size() != volume::voxel_count(g.dims))
+        g.sampling.check();
+        if (g.words.size() != g.expected_words())
             throw Error("vk::DeviceGrid: " + std::to_string(g.words.size()) + " words do not match the dimensions");
         return g.words;
     }
@@ -150,6 +151,7 @@ inline Frame run_image_kernel(Context& ctx, Kernel& kernel, std::span<Buffer* co
 /// tf.h; made with grid.user_kernel) runs instead of the library's dvr.comp.
 inline Frame render_dvr_vulkan(Context& ctx, DeviceGrid& grid, const VolumeRenderParams& p, Kernel* kernel = nullptr) {
     std::vector<std::uint32_t> params = sylva::detail::pack_dvr(grid.dims(), grid.spacing(), p);
+    grid.sampling().pack(params);
     Buffer tf = detail::tf_binding(ctx, p, kernel != nullptr);
     Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     pb.upload(params);
