@@ -22,7 +22,7 @@ packages=(
   libnanovdb-dev                     # sylva-iso-bench's NanoVDB HDDA peer (headers only; optional at configure time)
   zlib1g-dev                         # gzip-encoded NRRD volumes (optional)
   nlohmann-json3-dev                 # transfer functions in JSON (optional: found with __has_include)
-  libcli11-dev                       # command lines of the tools (sylva-store), parsed by CLI11
+  libcli11-dev                       # command lines of sylva-store and the benchmarks, parsed by CLI11
   clang libclang-rt-dev libfuzzer-14-dev  # fuzz targets (scripts/fuzz.sh): clang, its sanitizer runtimes, libFuzzer
   liblmdb-dev libzstd-dev liblz4-dev libxxhash-dev  # the out-of-core brick store (sylva::store, sylva-store)
   libhdf5-dev                        # sylva-store-bench: HDF5 chunked datasets, the peer of the LMDB store (optional)
