@@ -113,6 +113,11 @@ int run(const Options& o) {
 
 int main(int argc, char** argv) {
     sylva_render::Options opts;
+    for (int i = 1; i < argc; ++i)
+        if (std::string(argv[i]) == "-h" || std::string(argv[i]) == "--help") {
+            std::cout << sylva_render::usage();
+            return 0;
+        }
     try {
         opts = sylva_render::parse(argc, argv);
     } catch (const std::invalid_argument& e) {
