@@ -52,6 +52,10 @@ if [[ ! -f $build/CMakeCache.txt ]]; then
   cmake -S . -B "$build" -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSYLVA_FUZZ=ON \
     -DSYLVA_BUILD_TESTS=OFF -DSYLVA_BUILD_EXAMPLES=OFF -DSYLVA_BUILD_BENCHMARKS=OFF -DSYLVA_WITH_VULKAN=OFF \
     -DCMAKE_DLLTOOL=none "${tools[@]}"  # dlltool: Windows only, never run
+else
+  # An existing tree: configure again (cached settings kept) so that targets added to
+  # fuzz/targets.cmake since exist before they are named below.
+  cmake -S . -B "$build" >/dev/null
 fi
 cmake --build "$build" -j"$(nproc)" --target "${targets[@]/#/fuzz_}"
 # The fuzz tree uses clang and libFuzzer: both must come from scripts/deps.sh's packages.
