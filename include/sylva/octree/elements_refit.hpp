@@ -5,10 +5,14 @@
 // box overlaps). The node cells do not move, so the leaves still tile the lattice and queries
 // stay exact; what ages is the split decisions (leaves that now hold many elements are not
 // split). Elements that left the lattice cannot be listed: refit then returns false and leaves
-// the tree as it was, and the caller rebuilds (rebuild_elements).
+// the tree as it was, and the caller rebuilds (rebuild_elements); ElementConfig::refit_margin
+// builds a lattice with room for the motion. Refit and rebuild run the builder's level pass
+// (sylva/octree/elements.hpp: detail::split_level) over the lists kept in ElementTree::scratch,
+// so after the first frame neither allocates.
 #ifndef SYLVA_OCTREE_ELEMENTS_REFIT_HPP
 #define SYLVA_OCTREE_ELEMENTS_REFIT_HPP
 
+#include <bit>
 #include <chrono>
 #include <cstdint>
 #include <span>
@@ -23,80 +27,49 @@
 namespace sylva::octree {
 
 /// Lists the leaves of `et` anew from the current boxes of `elements` (the same count it was
-/// built over; `cfg` the configuration it was built with). Returns false, with `et` unchanged,
-/// when an element's padded box reaches outside the lattice; throws sylva::Error for another
-/// element count or a non-finite box.
+/// built over; `cfg` the configuration it was built with), in the builder's lists kept in
+/// et.scratch (no allocation once their capacities suffice). Returns false, with the tree
+/// unchanged, when an element's padded box reaches outside the lattice (build with
+/// ElementConfig::refit_margin to leave room); throws sylva::Error for another element count, a
+/// non-finite box, or nodes not stored as the builder stores them.
 template <Bounded E, Executor X>
 bool refit_elements(ElementTree& et, std::span<const E> elements, const ElementConfig& cfg, X& exec) {
     auto start = std::chrono::steady_clock::now();
     if (elements.size() != et.element_count || et.tree.nodes.empty())
         throw Error("octree::refit_elements: the tree was built over " + std::to_string(et.element_count) +
                     " elements, not " + std::to_string(elements.size()));
-    detail::scene_box(elements);  // throws naming a non-finite box
-    Tree& t = et.tree;
-    std::vector<detail::CellBox> boxes = detail::cell_boxes(elements, et, cfg.overlap_pad, exec);
-    vec3 dims(t.dims);
-    std::vector<std::uint32_t> all;
-    all.reserve(elements.size());
-    for (std::uint32_t i = 0; i < elements.size(); ++i) {
-        const detail::CellBox& b = boxes[i];
-        if (b.lo.x > b.hi.x) continue;
-        if (glm::any(glm::lessThan(b.lo, vec3(0.0f))) || glm::any(glm::greaterThan(b.hi, dims))) return false;
-        all.push_back(i);
+    detail::check_config(cfg);
+    detail::scene_box(elements, "octree::refit_elements");  // throws naming a non-finite box
+    detail::ElementScratch& sc = et.scratch;
+    detail::cell_boxes(elements, et, cfg.overlap_pad, sc.boxes, exec);
+    vec3 dims(et.tree.dims);
+    for (const detail::CellBox& b : sc.boxes)
+        if (!(b.lo.x > b.hi.x) && (glm::any(glm::lessThan(b.lo, vec3(0.0f))) || glm::any(glm::greaterThan(b.hi, dims))))
+            return false;
+    // The nodes must be stored as the builder stores them (level by level, each node's children
+    // consecutive where the level order puts them): checked before anything is rewritten.
+    std::size_t children = 1;
+    for (std::size_t n = 0; n < et.tree.nodes.size(); ++n) {
+        const Node& node = et.tree.nodes[n];
+        if (node.leaf()) continue;
+        if (node.first_child != children || (n > 0 && et.tree.nodes[n - 1].level > node.level))
+            throw Error("octree::refit_elements: node " + std::to_string(n) + " is not stored as the builder stores it");
+        children += std::size_t(std::popcount(node.child_mask & 0xFFu));
     }
-    // Top down, level by level (a level's nodes are contiguous and its children follow it).
-    std::vector<std::vector<std::uint32_t>> lists(t.nodes.size());
-    lists[0] = std::move(all);
-    std::size_t begin = 0;
-    while (begin < t.nodes.size()) {
-        std::size_t end = begin;
-        while (end < t.nodes.size() && t.nodes[end].level == t.nodes[begin].level) ++end;
-        exec.parallel_for(begin, end, 1, [&](std::size_t n0, std::size_t n1) {
-            for (std::size_t n = n0; n < n1; ++n) {
-                const Node& node = t.nodes[n];
-                if (node.leaf()) continue;
-                std::uint32_t w = t.width(node.level + 1);
-                glm::u32vec3 mid = (2u * node.coord + 1u) * w;
-                glm::bvec3 upper = glm::lessThan(mid, t.dims);
-                vec3 fmid(mid);
-                std::uint32_t slot[8], k = node.first_child;
-                for (std::uint32_t o = 0; o < 8; ++o) slot[o] = ((node.child_mask >> o) & 1u) ? k++ : kNone;
-                for (std::uint32_t e : lists[n]) {
-                    const detail::CellBox& b = boxes[e];
-                    std::uint32_t sides[3];
-                    for (int a = 0; a < 3; ++a)
-                        sides[a] = (b.lo[a] <= fmid[a] ? 1u : 0u) | (upper[a] && b.hi[a] >= fmid[a] ? 2u : 0u);
-                    for (std::uint32_t o = 0; o < 8; ++o)
-                        if (slot[o] != kNone && ((sides[0] >> (o & 1u)) & 1u) && ((sides[1] >> ((o >> 1) & 1u)) & 1u) &&
-                            ((sides[2] >> ((o >> 2) & 1u)) & 1u))
-                            lists[slot[o]].push_back(e);
-                }
-                std::vector<std::uint32_t>().swap(lists[n]);
-            }
-        });
-        begin = end;
-    }
-    et.refs.clear();
-    et.leaf_first.assign(1, 0u);
-    for (std::size_t n = 0; n < t.nodes.size(); ++n) {
-        Node& node = t.nodes[n];
-        if (!node.leaf()) continue;
-        node.brick = kNone;
-        if (lists[n].empty()) continue;
-        node.brick = std::uint32_t(et.leaf_first.size() - 1);
-        et.refs.insert(et.refs.end(), lists[n].begin(), lists[n].end());
-        et.leaf_first.push_back(std::uint32_t(et.refs.size()));
-    }
+    if (children != et.tree.nodes.size())
+        throw Error("octree::refit_elements: the tree's child pointers do not cover its nodes");
+    detail::root_list(sc);
+    detail::distribute(et, cfg, true, exec);
     et.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return true;
 }
 
-/// Builds `et` anew over `elements` (the same tree as build_elements). The element octree's
-/// builder keeps a list per pending node and its levels; it reuses no memory of `et` (the
-/// kd-tree's and the BIH's rebuilds do), which sylva-bench's refit/rebuild rows show.
+/// Builds `et` anew over `elements`: the same tree as build_elements(elements, cfg), into et's
+/// own node, reference and scratch arrays (no allocation once their capacities suffice; the
+/// scratch is kept for the next frame).
 template <Bounded E, Executor X>
 void rebuild_elements(ElementTree& et, std::span<const E> elements, const ElementConfig& cfg, X& exec) {
-    et = build_elements(elements, cfg, exec);
+    detail::build_into(et, elements, cfg, exec);
 }
 
 /// Refit when every element is still inside the lattice, else rebuild; true when it refitted.
