@@ -29,8 +29,10 @@ struct Options {
     double pass_seconds = -1.0;             ///< --pass-seconds: time cap per pass (0 = none)
     bool quick = false;                     ///< --quick: small sizes and fewer rays
     bool help = false;                      ///< --help
-    /// --cases: which parts run (build and encode always run: the traversals need them)
-    bool run_first = true, run_all = true, run_clustered = true;
+    std::size_t frames = 0;                 ///< --frames: frames of the moving case (at least 2)
+    /// --cases: which parts run (build and encode run with any of build, first, all, clustered:
+    /// the traversals need them); moving runs only when named
+    bool run_build = true, run_first = true, run_all = true, run_clustered = true, run_moving = false;
 
     /// Runs of each build: at least 9 (within the build budget), as one build at 10^4 spheres
     /// takes 1-2 ms and medians of 3 such builds scattered by +-30 % between runs.
