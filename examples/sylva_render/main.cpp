@@ -19,6 +19,7 @@
 #endif
 
 #include "options.hpp"
+#include "animation_scene.hpp"
 #include "exact_particles_scene.hpp"
 #include "kd_particles_scene.hpp"
 #include "particle_octree_scene.hpp"

@@ -27,7 +27,9 @@ const char* usage() {
            "octree (volumes):   [--index octree] [--brick 16|32] [--lod-pixels P] [--cut-nodes N] [--mode dvr|iso]\n"
            "octree (particles): --particles FILE --index octree, or --count N --index octree (the galaxy)\n"
            "kd-tree (particles): --index kd (the element kd-tree: the octree's exact image)\n"
-           "moving particles:   [--animate N] [--update refit|rebuild] (--index bih|kd|octree, cpu)\n"
+           "moving particles:   [--animate N] [--update refit|rebuild] (--index bih|kd|octree, cpu or vulkan;\n"
+           "                    vulkan: one context and kernel for all frames, each uploads its encoding and\n"
+           "                    records; --order leaf --index kd: cpu only)\n"
            "particle order:     [--order exact|leaf] (exact, the default: bih, kd and octree through the generic\n"
            "                    element kernel, the same image; leaf: each index's own integrator, the BIH's per-leaf sort)\n"
            "out of core:        [--index octree] [--memory-budget SIZE] [--device-budget SIZE] [--frames N]\n"
@@ -210,8 +212,9 @@ Options parse(int argc, char** argv) {
         throw std::invalid_argument("--index " + o.index + " renders volumes only; particles need --index bih");
     if (o.index == "kd" && o.volume_input())
         throw std::invalid_argument("--index kd renders particles (the element kd-tree); volumes use --index kd-vidal or kd-binned");
-    if (o.animate > 0 && (o.volume_input() || o.backend != "cpu"))
-        throw std::invalid_argument("--animate moves particles on --backend cpu (--index bih, kd or octree)");
+    if (o.animate > 0 && o.volume_input())
+        throw std::invalid_argument("--animate moves particles (--index bih, kd or octree), not volumes");
+    if (o.order == "leaf" && o.particle_kd() && o.backend == "vulkan") throw std::invalid_argument(leaf_kd_host_only);
     if (o.particle_octree()) {
         for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
             for (int i = 1; i < argc; ++i)

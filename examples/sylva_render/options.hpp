@@ -20,7 +20,7 @@ struct Options {
                                      ///< dda: the same over every cell (the reference); octree: Gobbetti's
                                      ///< bricked octree, DVR or first-hit iso, for volumes; the element
                                      ///< octree for --particles or --count (cpu or vulkan))
-    std::uint32_t animate = 0;       ///< --animate N: move the particles for N frames (kd_particles_scene.hpp)
+    std::uint32_t animate = 0;       ///< --animate N: move the particles for N frames (animation_scene.hpp)
     std::string update = "refit";    ///< --update refit|rebuild: how the index follows the motion per frame
     /// --order exact|leaf (particles): exact = every --index through the generic element kernel
     /// (sylva/render/elements.hpp; (t0, index) order, the same image from bih, kd and octree);
@@ -108,6 +108,13 @@ struct Options {
     /// True when this run renders particles through the element kd-tree (--index kd).
     [[nodiscard]] bool particle_kd() const { return index == "kd" && !volume_input(); }
 };
+
+/// Why --order leaf --index kd --backend vulkan is refused (still or --animate): the kd-tree's
+/// own particle integrator has no compute shader; --order exact draws --index kd on Vulkan.
+inline constexpr const char* leaf_kd_host_only =
+    "--order leaf --index kd renders particles on --backend cpu only (the kd-tree's own integrator, "
+    "sylva/shared/kd_elem_particles.h, has no Vulkan kernel; --order exact, the default, renders --index kd on "
+    "Vulkan through the generic element kernel)";
 
 /// Parses argv; throws std::invalid_argument with a message naming the bad option.
 Options parse(int argc, char** argv);

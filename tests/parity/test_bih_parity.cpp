@@ -180,3 +180,41 @@ TEST_CASE("the GPU particle renderer refuses non-particle payload kinds and wrap
     }
     CHECK(errors > 20);  // the rays that reach a leaf (72 of 768 here)
 }
+
+TEST_CASE("one vk::ParticleKernel renders frames over BIHs that change, as render_particles_vulkan does",
+          "[parity][vulkan][particle-kernel]") {
+    using Catch::Matchers::Contains;
+    vk::Context ctx = vk::Context::create();
+    vk::ParticleKernel kernel(ctx);
+    // Three "frames": two BIHs of different depths (a different pipeline each), then the first
+    // again (its kept pipeline); each frame's BIH and records uploaded anew, as sylva-render
+    // --animate does.
+    auto small = io::synthetic_galaxy(500, 11), large = io::synthetic_galaxy(6000, 12);
+    std::vector<std::uint32_t> depths;
+    for (const std::vector<Sphere>* spheres : {&small, &large, &small}) {
+        std::span<const Sphere> es(*spheres);
+        bih::Tree t = bih::build(es);
+        auto words = bih::encode(t, es, bih::RangePayload{});
+        auto records = pack_particles(es, t.order);
+        CameraFrame cam = Camera::framing(t.bounds).frame(48, 36);
+        vk::DeviceBih dev(ctx, words);
+        depths.push_back(dev.constants()[1]);
+        vk::Buffer recs(ctx, records.size() * 4);
+        recs.upload(records);
+        Frame kept = kernel.render(dev, recs, cam, 48, 36);
+        Frame fresh = vk::render_particles_vulkan(ctx, dev, records, cam, 48, 36);
+        CHECK(kept.steps == fresh.steps);
+        CHECK(std::memcmp(kept.rgba.data(), fresh.rgba.data(), kept.rgba.size() * sizeof(vec4)) == 0);
+        float alpha = 0.0f;
+        for (const vec4& p : kept.rgba) alpha += p.a;
+        CHECK(alpha > 10.0f);
+    }
+    CHECK(depths[0] != depths[1]);  // the two BIHs really need two pipelines
+    auto spheres = io::synthetic_galaxy(200, 13);
+    std::span<const Sphere> es(spheres);
+    bih::Tree t = bih::build(es);
+    vk::DeviceBih dev(ctx, bih::encode(t, es, bih::RangePayload{}));
+    vk::Buffer odd(ctx, 7 * 4);  // not a whole 8-word record
+    CHECK_THROWS_WITH(kernel.render(dev, odd, Camera::framing(t.bounds).frame(8, 8), 8, 8),
+                      Contains("vk::ParticleKernel::render") && Contains("not a whole number of 8-word"));
+}

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <map>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -69,32 +71,62 @@ inline std::vector<std::uint32_t> leaf_sequences(Context& ctx, DeviceBih& bih, s
     return out;
 }
 
+/// The particle integrator (shaders/particles.comp) for repeated frames on one context: its
+/// pipelines are made per BIH split shift and stack depth (the specialization constants) on first
+/// use and kept, so frames over BIHs that change (moving particles, refit or rebuilt, uploaded
+/// anew each frame) compile nothing after the first. render_particles_vulkan is one frame of it.
+class ParticleKernel {
+public:
+    explicit ParticleKernel(Context& ctx) : ctx_(&ctx) {}
+
+    /// Renders `bih` with `records` (pack_particles output uploaded to a buffer; a dummy for
+    /// inline payloads); same output as render_particles_cpu. Throws sylva::Error when the
+    /// encoding's payload kind is not a particle kind (check_particle_payload).
+    Frame render(DeviceBih& bih, Buffer& records, const CameraFrame& cam, std::uint32_t width, std::uint32_t height,
+                 const ParticleRenderConfig& cfg = {}) {
+        check_particle_payload(bih.kind(), records.size_bytes() / 4, "vk::ParticleKernel::render");
+        Buffer out_buf(*ctx_, std::size_t{width} * height * 5 * 4);
+        struct {
+            std::array<float, 12> cam;
+            std::uint32_t width, height, word_count;
+            float alpha_stop;
+        } push{cam.floats(), width, height, bih.word_count(), cfg.alpha_stop};
+        static_assert(sizeof push == 64);
+        std::array<Buffer*, 6> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), &records, &out_buf};
+        Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
+        f.ms = ctx_->dispatch(kernel_for(bih), bind, &push, sizeof push, groups_for(width, 8), groups_for(height, 8));
+        std::vector<std::uint32_t> px(std::size_t{width} * height * 5);
+        out_buf.download(px);
+        for (std::size_t i = 0; i < f.rgba.size(); ++i) {
+            std::memcpy(&f.rgba[i], &px[i * 5], 16);
+            f.steps[i] = px[i * 5 + 4];
+        }
+        return f;
+    }
+
+private:
+    Kernel& kernel_for(const DeviceBih& bih) {
+        auto c = bih.constants();
+        auto key = (std::uint64_t{c[0]} << 32) | c[1];
+        auto found = kernels_.find(key);
+        if (found == kernels_.end())
+            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv::particles, 6, 64, c)).first;
+        return *found->second;
+    }
+
+    Context* ctx_;
+    std::map<std::uint64_t, std::unique_ptr<Kernel>> kernels_;
+};
+
 /// Renders an encoded particle BIH on the device; same output as render_particles_cpu. Throws
 /// sylva::Error when the encoding's payload kind is not a particle kind (check_particle_payload).
 inline Frame render_particles_vulkan(Context& ctx, DeviceBih& bih, std::span<const std::uint32_t> records,
                                      const CameraFrame& cam, std::uint32_t width, std::uint32_t height,
                                      const ParticleRenderConfig& cfg = {}) {
     check_particle_payload(bih.kind(), records.size(), "render_particles_vulkan");
-    Buffer elems(ctx, records.size() * 4), out_buf(ctx, std::size_t{width} * height * 5 * 4);
+    Buffer elems(ctx, records.size() * 4);
     if (!records.empty()) elems.upload(records);
-    auto constants = bih.constants();
-    Kernel kernel(ctx, spirv::particles, 6, 64, constants);
-    struct {
-        std::array<float, 12> cam;
-        std::uint32_t width, height, word_count;
-        float alpha_stop;
-    } push{cam.floats(), width, height, bih.word_count(), cfg.alpha_stop};
-    static_assert(sizeof push == 64);
-    std::array<Buffer*, 6> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), &elems, &out_buf};
-    Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
-    f.ms = ctx.dispatch(kernel, bind, &push, sizeof push, groups_for(width, 8), groups_for(height, 8));
-    std::vector<std::uint32_t> px(std::size_t{width} * height * 5);
-    out_buf.download(px);
-    for (std::size_t i = 0; i < f.rgba.size(); ++i) {
-        std::memcpy(&f.rgba[i], &px[i * 5], 16);
-        f.steps[i] = px[i * 5 + 4];
-    }
-    return f;
+    return ParticleKernel(ctx).render(bih, elems, cam, width, height, cfg);
 }
 
 }  // namespace sylva::vk
