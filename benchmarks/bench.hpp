@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -22,14 +23,14 @@ namespace bench {
 
 struct Options {
     std::string json;                       ///< --json FILE: where the records go ("" = nowhere)
-    std::vector<std::size_t> sizes;         ///< --sizes: element counts
-    std::size_t rays = 0;                   ///< --rays: rays per traversal case
+    /// --sizes: element counts (default 1e4, 1e5, 1e6, 1e7; --quick: 1e4, 1e5)
+    std::vector<std::size_t> sizes{10000, 100000, 1000000, 10000000};
+    std::size_t rays = 1000000;             ///< --rays: rays per traversal case (--quick: 1e5)
     std::size_t runs = 5;                   ///< --runs: timed runs per case (median reported)
     std::size_t threads = 0;                ///< --threads: worker threads (0 = hardware)
-    double pass_seconds = -1.0;             ///< --pass-seconds: time cap per pass (0 = none)
+    double pass_seconds = 1.0;              ///< --pass-seconds: time cap per pass (0 = none; --quick: 0.2)
     bool quick = false;                     ///< --quick: small sizes and fewer rays
-    bool help = false;                      ///< --help
-    std::size_t frames = 0;                 ///< --frames: frames of the moving case (at least 2)
+    std::size_t frames = 6;                 ///< --frames: frames of the moving case, 2..1000 (--quick: 3)
     /// --cases: which parts run (build and encode run with any of build, first, all, clustered:
     /// the traversals need them); moving runs only when named
     bool run_build = true, run_first = true, run_all = true, run_clustered = true, run_moving = false;
@@ -43,14 +44,9 @@ struct Options {
     [[nodiscard]] double encode_budget_ms() const { return pass_seconds > 0.0 ? 10000.0 * pass_seconds : 0.0; }
 };
 
-/// Parses argv; throws UsageError with a message on a bad option.
-Options parse_options(int argc, char** argv);
-/// The usage text.
-std::string usage();
-
-struct UsageError {
-    std::string message;
-};
+/// Parses argv into `o` (CLI11, options.cpp). Empty when the run goes on; else the exit status:
+/// 0 after --help (printed on stdout), 2 after bad usage (reported on stderr).
+std::optional<int> parse_options(int argc, char** argv, Options& o);
 
 // ---- workloads ------------------------------------------------------------------------------
 

@@ -1,10 +1,13 @@
 // benchmarks/cli.hpp -- what the benchmarks' CLI11 command lines (Debian libcli11-dev) share: one
 // parse that prints --help on stdout (exit status 0) and bad usage as the message plus a hint on
-// stderr (exit status 2), options for image sizes WxH, and a number range that refuses NaN. Used by
-// sylva-tables, -kd-bench, -iso-bench, -octree-bench, -volume-bench, -residency-bench, -store-bench.
+// stderr (exit status 2), options for image sizes WxH, a number range that refuses NaN and whole
+// counts also written in e-notation (1e6). Used by sylva-bench, sylva-tables, -kd-bench, -iso-bench,
+// -octree-bench, -volume-bench, -residency-bench, -store-bench, -moving-bench, -nanovdb-bench and
+// -octree-elements-bench.
 #ifndef SYLVA_BENCH_CLI_HPP
 #define SYLVA_BENCH_CLI_HPP
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <iostream>
@@ -84,6 +87,41 @@ inline CLI::Validator number_in(double lo, double hi) {
             return std::string();
         },
         "FLOAT " + range.str());
+}
+
+/// `x` as the help shows a limit: digits below 10^6, else e-notation without '+' and leading zeros
+/// ("4e9").
+inline std::string limit_label(double x) {
+    std::ostringstream out;
+    out << x;
+    std::string s = out.str();
+    std::size_t e = s.find("e+");
+    if (e != std::string::npos) {
+        std::size_t digits = s.find_first_not_of('0', e + 2);
+        s = s.substr(0, e + 1) + (digits == std::string::npos ? "0" : s.substr(digits));
+    }
+    return s;
+}
+
+/// A CLI11 transform (add it with Option::transform): a whole number in [lo, hi] written as an
+/// integer or in e-notation ("1e6", "2.5e5"), rewritten as its digits so that it converts to an
+/// integer option (also each item of a delimited list).
+inline CLI::Validator count_in(double lo, double hi) {
+    std::string range = "in [" + limit_label(lo) + ", " + limit_label(hi) + "]";
+    return CLI::Validator(
+        [lo, hi, range](std::string& v) {
+            double x = 0.0;
+            if (!CLI::detail::lexical_cast(v, x) || !(x >= lo && x <= hi) || x != std::floor(x))
+                return "'" + v + "' is not a whole number " + range;
+            v = std::to_string(static_cast<unsigned long long>(x));
+            return std::string();
+        },
+        "COUNT " + range);
+}
+
+/// A CLI11 check: a non-empty value (file names).
+inline CLI::Validator non_empty() {
+    return CLI::Validator([](std::string& v) { return v.empty() ? std::string("empty value") : std::string(); }, "");
 }
 
 }  // namespace bench_cli

@@ -1,7 +1,8 @@
 // sylva-bench: sylva's BIH and element octree against Embree 3 on the same spheres and the same rays.
 //
 //   sylva-bench [--json FILE] [--sizes 1e4,1e5,1e6,1e7] [--rays N] [--runs K] [--threads T]
-//               [--cases build,first,all,clustered,moving] [--frames F] [--quick]
+//               [--pass-seconds S] [--cases build,first,all,clustered,moving] [--frames F] [--quick]
+//   (options.cpp; sylva-bench --help lists them)
 //
 // Cases (each time the median of --runs runs): BIH build and encode over N spheres (uniform,
 // and clustered up to 1e6), first-hit and all-hits-in-order traversal (rays/s), and a
@@ -23,6 +24,7 @@
 #include <exception>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -109,16 +111,7 @@ int run(const bench::Options& opt) {
 
 int main(int argc, char** argv) {
     bench::Options opt;
-    try {
-        opt = bench::parse_options(argc, argv);
-    } catch (const bench::UsageError& e) {
-        std::cerr << "sylva-bench: " << e.message << "\n" << bench::usage();
-        return 2;
-    }
-    if (opt.help) {
-        std::cout << bench::usage();
-        return 0;
-    }
+    if (std::optional<int> status = bench::parse_options(argc, argv, opt)) return *status;
     try {
         return run(opt);
     } catch (const std::exception& e) {

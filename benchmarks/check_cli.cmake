@@ -1,0 +1,53 @@
+# check_cli.cmake -- checks a benchmark's CLI11 command line without running the benchmark:
+#   cmake -DPROGRAM=exe -DMODE=help -DNAMES="--a|--b" -P check_cli.cmake
+#     `exe --help` exits 0, writes nothing on stderr, and its help lists every option of NAMES
+#     (names starting with --; other names: text found anywhere in the help);
+#   cmake -DPROGRAM=exe -DMODE=bad -DARGS="--a|value" -DEXPECT=regex -P check_cli.cmake
+#     `exe ARGS` exits 2 (bad usage), writes nothing on stdout (nothing ran), and its stderr
+#     matches EXPECT and points to --help.
+# Lists are separated by '|' (a ';' would be split by add_test).
+if(NOT PROGRAM OR NOT MODE)
+  message(FATAL_ERROR "check_cli.cmake: PROGRAM and MODE are required")
+endif()
+if(MODE STREQUAL "help")
+  execute_process(COMMAND ${PROGRAM} --help RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 30)
+  if(NOT rc STREQUAL "0")
+    message(FATAL_ERROR "${PROGRAM} --help: exit status ${rc} (want 0)\nstdout:\n${out}\nstderr:\n${err}")
+  endif()
+  if(NOT err STREQUAL "")
+    message(FATAL_ERROR "${PROGRAM} --help wrote on stderr:\n${err}")
+  endif()
+  string(REPLACE "|" ";" names "${NAMES}")
+  foreach(name IN LISTS names)
+    if(name MATCHES "^--")  # an option: a line of the option list starts with it
+      string(REGEX MATCH "\n  (-[a-zA-Z],)?${name}[ =\n]" at "${out}")
+    else()  # text (e.g. the exit statuses in the footer)
+      string(FIND "${out}" "${name}" found)
+      set(at "")
+      if(NOT found EQUAL -1)
+        set(at "${name}")
+      endif()
+    endif()
+    if(at STREQUAL "")
+      message(FATAL_ERROR "${PROGRAM} --help does not list '${name}':\n${out}")
+    endif()
+  endforeach()
+  list(LENGTH names n)
+  message(STATUS "${PROGRAM} --help: exit status 0, ${n} names found")
+elseif(MODE STREQUAL "bad")
+  string(REPLACE "|" ";" args "${ARGS}")
+  execute_process(COMMAND ${PROGRAM} ${args} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 30)
+  if(NOT rc STREQUAL "2")
+    message(FATAL_ERROR "${PROGRAM} ${args}: exit status ${rc} (want 2)\nstdout:\n${out}\nstderr:\n${err}")
+  endif()
+  if(NOT out STREQUAL "")
+    message(FATAL_ERROR "${PROGRAM} ${args} wrote on stdout (bad usage should stop before any work):\n${out}")
+  endif()
+  if(NOT err MATCHES "${EXPECT}" OR NOT err MATCHES "--help")
+    message(FATAL_ERROR "${PROGRAM} ${args}: stderr does not match '${EXPECT}' and point to --help:\n${err}")
+  endif()
+  string(STRIP "${err}" err)
+  message(STATUS "${PROGRAM} ${args}: exit status 2: ${err}")
+else()
+  message(FATAL_ERROR "check_cli.cmake: MODE is help or bad, not '${MODE}'")
+endif()
