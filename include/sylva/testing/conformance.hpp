@@ -18,8 +18,9 @@
 //    ranges and rely on it).
 //  * structures (check_structures): first_hit and all_hits of the BIH (RangePayload encoding),
 //    the element octree and the element kd-tree, each equal to brute force (bih::brute_force_hits)
-//    on random rays, axis-parallel rays, rays starting inside the scene and limited ranges; the
-//    kd-tree again after refit_elements over moved instances.
+//    on random rays, axis-parallel rays, rays starting inside the scene and limited ranges; each
+//    again after its update over moved instances: bih::refit, kdtree::refit_elements,
+//    octree::refit_elements (a tree built with a refit margin) and octree::rebuild_elements.
 //  * medium (check_medium, for RayInteraction types): optical depth >= 0, finite colour, the
 //    contribution inside intersect's interval, and additive over a split of the interval.
 //  * ordering (inside check_structures): all_hits is sorted by bih::hit_before, names no element
@@ -58,6 +59,7 @@
 #include "sylva/bih/encode.hpp"
 #include "sylva/bih/payload.hpp"
 #include "sylva/bih/query.hpp"
+#include "sylva/bih/refit.hpp"
 #include "sylva/core/concepts.hpp"
 #include "sylva/core/executor.hpp"
 #include "sylva/core/ray.hpp"
@@ -65,6 +67,7 @@
 #include "sylva/kdtree/elements_encode.hpp"
 #include "sylva/octree/elements.hpp"
 #include "sylva/octree/elements_encode.hpp"
+#include "sylva/octree/elements_refit.hpp"
 
 namespace sylva::testing {
 
@@ -112,6 +115,9 @@ struct ConformanceConfig {
     bool check_bih = true;
     bool check_octree = true;
     bool check_kdtree = true;      ///< kd-tree queries, and the kd-tree after refit_elements
+    /// The structures again after their update onto moved instances (check_element_type: a
+    /// second generated scene): BIH refit, kd-tree refit, element octree refit and rebuild.
+    bool check_updates = true;
     std::size_t max_reports = 8;   ///< mismatches kept per report (all are counted)
 };
 
@@ -178,8 +184,13 @@ inline std::string format_hits(std::span<const bih::ElementHit> hits) {
     if (hits.empty()) return "no hits";
     std::string text;
     for (std::size_t i = 0; i < hits.size() && i < 6; ++i) {
+        // Appended piece by piece: "e" + std::string&& trips GCC 12's -Wrestrict false positive
+        // (GCC bug 105329) where this function is inlined.
         if (i > 0) text += ", ";
-        text += "e" + std::to_string(hits[i].element) + " " + format_interval(hits[i].t);
+        text += 'e';
+        text += std::to_string(hits[i].element);
+        text += ' ';
+        text += format_interval(hits[i].t);
     }
     if (hits.size() > 6) text += ", ... (" + std::to_string(hits.size()) + " in all)";
     return text;
@@ -500,7 +511,10 @@ Aabb scene_box(std::span<const E> scene) {
 
 /// BIH, element octree and element kd-tree queries over `scene` against brute force, and the
 /// ordering of their hits (see the top of the file). `moved` (same size as scene, or empty)
-/// checks the kd-tree again after refit_elements over it.
+/// checks each structure again after its update onto it (ConformanceConfig::check_updates):
+/// bih::refit, kdtree::refit_elements, octree::refit_elements of a tree built with
+/// refit_margin 1 (its lattice three times the scene's box; where a moved instance leaves even
+/// that, the check says so and rebuilds) and octree::rebuild_elements of the default tree.
 template <Intersectable E>
 Report check_structures(std::span<const E> scene, const ConformanceConfig& cfg = {}, std::span<const E> moved = {}) {
     Report r;
@@ -512,21 +526,55 @@ Report check_structures(std::span<const E> scene, const ConformanceConfig& cfg =
     Rng rng(cfg.seed ^ 0x5CE7E5ull);
     const Aabb box = detail::scene_box(scene);
     const std::vector<std::pair<Ray, Interval>> rays = detail::scene_rays(box, cfg.structure_rays, rng);
+    const bool updates = cfg.check_updates && moved.size() == scene.size();
+    SerialExecutor serial;
+    // The octree's queries over any of its trees (after a build, a refit or a rebuild).
+    auto check_octree = [&](const char* name, const octree::ElementTree& tree, std::span<const E> elements,
+                            const std::vector<std::pair<Ray, Interval>>& probes) {
+        const std::vector<std::uint32_t> words = octree::encode_elements(tree);
+        detail::check_queries(r, name, elements, probes, [&](const Ray& ray, Interval range, std::vector<bih::ElementHit>& all) {
+            octree::all_hits(words, elements, ray, all, range);
+            return octree::first_hit(words, elements, ray, range);
+        });
+    };
     if (cfg.check_bih) {
-        const bih::Tree tree = bih::build(scene);
-        const std::vector<std::uint32_t> words = bih::encode(tree, scene, bih::RangePayload{});
+        bih::Tree tree = bih::build(scene);
+        std::vector<std::uint32_t> words = bih::encode(tree, scene, bih::RangePayload{});
         detail::check_queries(r, "bih", scene, rays, [&](const Ray& ray, Interval range, std::vector<bih::ElementHit>& all) {
             bih::all_hits(words, tree, scene, ray, all, range);
             return bih::first_hit(words, tree, scene, ray, range);
         });
+        if (updates) {
+            bih::refit(tree, moved, serial);
+            words = bih::encode(tree, moved, bih::RangePayload{});
+            const std::vector<std::pair<Ray, Interval>> moved_rays =
+                detail::scene_rays(detail::scene_box(moved), cfg.structure_rays / 2, rng);
+            detail::check_queries(r, "bih.refit", moved, moved_rays,
+                                  [&](const Ray& ray, Interval range, std::vector<bih::ElementHit>& all) {
+                                      bih::all_hits(words, tree, moved, ray, all, range);
+                                      return bih::first_hit(words, tree, moved, ray, range);
+                                  });
+        }
     }
     if (cfg.check_octree) {
-        const octree::ElementTree tree = octree::build_elements(scene);
-        const std::vector<std::uint32_t> words = octree::encode_elements(tree);
-        detail::check_queries(r, "octree", scene, rays, [&](const Ray& ray, Interval range, std::vector<bih::ElementHit>& all) {
-            octree::all_hits(words, scene, ray, all, range);
-            return octree::first_hit(words, scene, ray, range);
-        });
+        octree::ElementTree tree = octree::build_elements(scene);
+        check_octree("octree", tree, scene, rays);
+        if (updates) {
+            const std::vector<std::pair<Ray, Interval>> moved_rays =
+                detail::scene_rays(detail::scene_box(moved), cfg.structure_rays / 2, rng);
+            octree::rebuild_elements(tree, moved, octree::ElementConfig{}, serial);
+            check_octree("octree.rebuild", tree, moved, moved_rays);
+            octree::ElementConfig roomy;
+            roomy.refit_margin = 1.0f;
+            octree::ElementTree loose = octree::build_elements(scene, roomy, serial);
+            if (octree::refit_elements(loose, moved, roomy, serial)) {
+                check_octree("octree.refit", loose, moved, moved_rays);
+            } else {
+                r.notes.push_back("octree.refit: a moved instance left the lattice of refit_margin 1; rebuilt instead");
+                octree::rebuild_elements(loose, moved, roomy, serial);
+                check_octree("octree.refit_fallback", loose, moved, moved_rays);
+            }
+        }
     }
     if (cfg.check_kdtree) {
         kdtree::ElementTree tree = kdtree::build_elements(scene);
@@ -535,8 +583,7 @@ Report check_structures(std::span<const E> scene, const ConformanceConfig& cfg =
             kdtree::all_hits(words, scene, ray, all, range);
             return kdtree::first_hit(words, scene, ray, range);
         });
-        if (moved.size() == scene.size()) {
-            SerialExecutor serial;
+        if (updates) {
             kdtree::refit_elements(tree, moved, kdtree::ElementConfig{}, serial);
             words = kdtree::encode_elements(tree);
             const std::vector<std::pair<Ray, Interval>> moved_rays =
