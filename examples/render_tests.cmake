@@ -8,7 +8,7 @@ set(_data ${PROJECT_SOURCE_DIR}/../shared/data)
 
 function(sylva_render_test name)
   cmake_parse_arguments(A "KEYS_ONLY" "RC;ERR;MAKE_FILE;MAKE_BYTES;NEED;ENV;FIXTURE"
-                        "ARGS;FILES;JSON;EXTRA_KEYS;JSON_MIN;JSON_EQUAL" ${ARGN})
+                        "ARGS;FILES;JSON;EXTRA_KEYS;JSON_MIN;JSON_EQUAL;JSON_TYPE" ${ARGN})
   list(JOIN A_ARGS "|" joined)
   set(defs -DEXE=$<TARGET_FILE:sylva-render> "-DARGS=${joined}")
   if(DEFINED A_RC)
@@ -26,7 +26,7 @@ function(sylva_render_test name)
     list(JOIN A_FILES "|" files)
     list(APPEND defs "-DFILES=${files}")
   endif()
-  foreach(v JSON_MIN JSON_EQUAL)
+  foreach(v JSON_MIN JSON_EQUAL JSON_TYPE)
     if(A_${v})
       string(REPLACE ";" "|" joined_v "${A_${v}}")
       list(APPEND defs "-D${v}=${joined_v}")
@@ -404,3 +404,54 @@ foreach(backend cpu vulkan)
 endforeach()
 sylva_render_test(camera_ortho_particles RC 2 ERR "--camera ortho renders in-core volumes"
   ARGS --count 1000 --camera ortho -o ${_out}/x.png)
+
+# The command line through CLI11 and the stats JSON through nlohmann-json (issue 16, item 6):
+# --help (and -h after bad options) exits 0 listing every option registered in options.cpp;
+# bad usage exits 2 with a message naming the option and a hint; numbers in e-notation; an option
+# given twice takes the last value; the stats JSON parses with string(JSON) and has every key of
+# particle, volume and out-of-core runs with its JSON type.
+add_test(NAME examples.sylva_render.cli_help
+         COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:sylva-render>
+                 -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}/sylva_render/options.cpp
+                 -P ${CMAKE_CURRENT_SOURCE_DIR}/render_help_check.cmake)
+sylva_render_test(cli_stray_argument RC 2 ERR "unknown option 'frame\\.png'" ARGS frame.png -o ${_out}/x.png)
+sylva_render_test(cli_missing_value RC 2 ERR "--index needs a value" ARGS -o ${_out}/x.png --index)
+sylva_render_test(cli_threads_out_of_range RC 2
+  ERR "sylva-render: --threads: '2000' is not a number in \\[0, 1024\\].Run sylva-render --help for the options"
+  ARGS --threads 2000 -o ${_out}/x.png)
+sylva_render_test(cli_count_out_of_range RC 2 ERR "--count: '2e8' is not a number in \\[1, 100000000\\]"
+  ARGS --count 2e8 -o ${_out}/x.png)
+sylva_render_test(cli_size_out_of_range RC 2 ERR "--size: '0' is not a number in \\[1, 16384\\]"
+  ARGS --size 0x16 -o ${_out}/x.png)
+sylva_render_test(cli_size_not_wxh RC 2 ERR "--size: '64' is not WxH" ARGS --size 64 -o ${_out}/x.png)
+sylva_render_test(cli_view_not_xyz RC 2 ERR "--view: '1,2' is not X,Y,Z" ARGS --view 1,2 -o ${_out}/x.png)
+sylva_render_test(cli_budget_not_a_size RC 2 ERR "--memory-budget: '12Q' is not a number"
+  ARGS --volume procedural:ml --index octree --memory-budget 12Q -o ${_out}/x.png)
+sylva_render_test(cli_iso_cull_word RC 2 ERR "--iso-cull: 'maybe' is not one of on\\|off"
+  ARGS --index implicit-kd --iso-cull maybe -o ${_out}/x.png)
+set(_stats_keys index backend device input elements nodes leaves max_depth single_child_percent bytes build_ms
+    encode_ms render_ms rays_per_s width height repeat ms_min ms_median rays_per_s_median frame_ms camera steps_mean
+    steps_max visible_pixels errors)
+set(_stats_types index=STRING backend=STRING device=STRING input=STRING camera=STRING frame_ms=ARRAY
+    elements=NUMBER render_ms=NUMBER rays_per_s_median=NUMBER visible_pixels=NUMBER errors=NUMBER)
+sylva_render_test(stats_json_particles
+  ARGS --count 1e3 --count 2e3 --size 8x8 --size 48x36 --view -1,0.5,1 --quiet -o ${_out}/stats_particles.png
+       --stats-json ${_out}/stats_particles.json
+  FILES ${_out}/stats_particles.png JSON ${_out}/stats_particles.json EXTRA_KEYS ${_stats_keys} order
+  JSON_EQUAL elements=2000 width=48 height=36 order=exact backend=cpu errors=0 JSON_MIN visible_pixels=1
+  JSON_TYPE ${_stats_types} order=STRING)
+sylva_render_test(stats_json_volume
+  ARGS --mode dvr --steps 64 --size 48x36 --quiet -o ${_out}/stats_volume.png --stats-json ${_out}/stats_volume.json
+  FILES ${_out}/stats_volume.png JSON ${_out}/stats_volume.json
+  EXTRA_KEYS ${_stats_keys} mode value_range value_range_source data_bytes voxels grid_bytes index_bytes grid_format
+             border grid_bytes_16bit full_nodes full_single_child_percent full_max_depth full_bytes full_bytes_paper
+             full_ms lod_nodes lod_leaves lod_max_depth lod_bytes lod_ms
+  JSON_EQUAL value_range.0=0 value_range.1=1 "value_range_source=procedural densities" errors=0
+  JSON_TYPE ${_stats_types} mode=STRING value_range=ARRAY value_range.1=NUMBER grid_format=STRING full_ms=NUMBER)
+sylva_render_test(stats_json_ooc
+  ARGS --volume procedural:ml --index octree --brick 16 --frames 2 --memory-budget 8M --device-budget 4M --size 48x36
+       --quiet -o ${_out}/stats_ooc.png --stats-json ${_out}/stats_ooc.json
+  FILES ${_out}/stats_ooc.png JSON ${_out}/stats_ooc.json EXTRA_KEYS ${_stats_keys} ${_oct_keys} ${_ooc_keys}
+  JSON_EQUAL memory_budget=8388608 device_budget=4194304 bad_bricks=0 feedback=ON
+  JSON_TYPE ${_stats_types} feedback=BOOLEAN frames=ARRAY frames.1=OBJECT frames.1.cut_nodes=NUMBER
+            lod_pixels=NUMBER index_bytes=NUMBER)

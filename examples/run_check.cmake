@@ -1,16 +1,18 @@
 # Runs one command and checks what it did (lists are |-separated, as ; does not survive add_test):
 #   cmake -DEXE=<program> -DARGS=<a|b|c> [-DEXPECT_RC=0] [-DEXPECT_ERR=<regex>] [-DFILES=<f|g>]
 #         [-DJSON=<file> -DJSON_KEYS=<k|l>] [-DJSON_POSITIVE=<k|l>] [-DJSON_MIN=<k=n|l=m>]
-#         [-DJSON_EQUAL=<k=v|l.1=w>] [-DMAKE_FILE=<path> -DMAKE_BYTES=<n>] [-DNEED=<path>] -P run_check.cmake
+#         [-DJSON_EQUAL=<k=v|l.1=w>] [-DJSON_TYPE=<k=NUMBER|l=STRING>] [-DMAKE_FILE=<path> -DMAKE_BYTES=<n>]
+#         [-DNEED=<path>] -P run_check.cmake
 # JSON_MIN: each key's number must be >= n; JSON_EQUAL: each key's value must be v (as text, or as a
-# number: CMake prints JSON numbers its own way, 1e6 as 1000000.0). A key may name
-# an array element as key.index (value_range.1 is the second number of "value_range").
+# number: CMake prints JSON numbers its own way, 1e6 as 1000000.0); JSON_TYPE: each key's JSON type
+# must be the one named (string(JSON TYPE): NULL, NUMBER, STRING, BOOLEAN, ARRAY, OBJECT). A key may
+# name an array element as key.index (value_range.1 is the second number of "value_range").
 # NEED: a path that must exist, else the test is skipped (exit 77) with a message saying so.
 if(NEED AND NOT EXISTS "${NEED}")
   message("SKIP: ${NEED} not found (the data set from ../shared/data is needed for this test)")
   cmake_language(EXIT 77)
 endif()
-foreach(v ARGS FILES JSON_KEYS JSON_POSITIVE JSON_MIN JSON_EQUAL)
+foreach(v ARGS FILES JSON_KEYS JSON_POSITIVE JSON_MIN JSON_EQUAL JSON_TYPE)
   string(REPLACE "|" ";" ${v} "${${v}}")
 endforeach()
 set(CMD "${EXE}" ${ARGS})
@@ -55,19 +57,25 @@ if(JSON)
       message(FATAL_ERROR "stats JSON '${k}' is ${v}, expected > 0")
     endif()
   endforeach()
-  foreach(kind MIN EQUAL)
+  foreach(kind MIN EQUAL TYPE)
     foreach(entry IN LISTS JSON_${kind})
       string(REGEX MATCH "^([^=]+)=(.*)$" _ "${entry}")
       set(key "${CMAKE_MATCH_1}")
       set(want "${CMAKE_MATCH_2}")
       string(REPLACE "." ";" path "${key}")
-      string(JSON v ERROR_VARIABLE e GET "${text}" ${path})
+      if(kind STREQUAL "TYPE")
+        string(JSON v ERROR_VARIABLE e TYPE "${text}" ${path})
+      else()
+        string(JSON v ERROR_VARIABLE e GET "${text}" ${path})
+      endif()
       if(e)
         message(FATAL_ERROR "stats JSON lacks '${key}': ${e}")
       elseif(kind STREQUAL "MIN" AND v LESS want)
         message(FATAL_ERROR "stats JSON '${key}' is ${v}, expected >= ${want}")
       elseif(kind STREQUAL "EQUAL" AND NOT (v STREQUAL want OR v EQUAL want))  # EQUAL: 1000000.0 is 1000000
         message(FATAL_ERROR "stats JSON '${key}' is '${v}', expected '${want}'")
+      elseif(kind STREQUAL "TYPE" AND NOT v STREQUAL want)
+        message(FATAL_ERROR "stats JSON '${key}' is a JSON ${v}, expected ${want}")
       endif()
     endforeach()
   endforeach()

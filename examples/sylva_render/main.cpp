@@ -114,7 +114,7 @@ int run(const Options& o) {
 
 int main(int argc, char** argv) {
     sylva_render::Options opts;
-    for (int i = 1; i < argc; ++i)
+    for (int i = 1; i < argc; ++i)  // -h/--help anywhere wins over bad usage elsewhere
         if (std::string(argv[i]) == "-h" || std::string(argv[i]) == "--help") {
             std::cout << sylva_render::usage();
             return 0;
@@ -122,7 +122,7 @@ int main(int argc, char** argv) {
     try {
         opts = sylva_render::parse(argc, argv);
     } catch (const std::invalid_argument& e) {
-        std::cerr << "sylva-render: " << e.what() << "\n" << sylva_render::usage();
+        std::cerr << "sylva-render: " << e.what() << "\nRun sylva-render --help for the options.\n";
         return 2;
     }
     try {

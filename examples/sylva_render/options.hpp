@@ -1,4 +1,4 @@
-// sylva-render command line.
+// sylva-render's command line (parsed by CLI11 in options.cpp; --help prints usage()).
 #ifndef SYLVA_RENDER_OPTIONS_HPP
 #define SYLVA_RENDER_OPTIONS_HPP
 
@@ -116,10 +116,11 @@ inline constexpr const char* leaf_kd_host_only =
     "sylva/shared/kd_elem_particles.h, has no Vulkan kernel; --order exact, the default, renders --index kd on "
     "Vulkan through the generic element kernel)";
 
-/// Parses argv; throws std::invalid_argument with a message naming the bad option.
+/// Parses argv through CLI11 (options.cpp), then checks the options against each other; throws
+/// std::invalid_argument with a message naming the bad option.
 Options parse(int argc, char** argv);
-/// The usage text.
-const char* usage();
+/// The --help text (CLI11's, the options grouped by what they apply to).
+std::string usage();
 
 }  // namespace sylva_render
 

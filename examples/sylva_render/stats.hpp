@@ -1,13 +1,18 @@
-// sylva-render statistics: printed and written as one JSON object.
+// sylva-render statistics: printed and written as one JSON object (nlohmann-json).
 #ifndef SYLVA_RENDER_STATS_HPP
 #define SYLVA_RENDER_STATS_HPP
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <ostream>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include <sylva/bih/tree.hpp>
 #include <sylva/core/error.hpp>
@@ -278,110 +283,177 @@ struct Stats {
         double ms = ms_median();
         return ms > 0.0 ? static_cast<double>(width) * height / (ms / 1000.0) : 0.0;
     }
-    [[nodiscard]] std::string frame_ms_json() const {
-        std::string s = "[";
-        for (std::size_t i = 0; i < frame_ms.size(); ++i) s += (i ? ", " : "") + std::to_string(frame_ms[i]);
-        return s + "]";
-    }
-
-    static std::string quoted(const std::string& s) {
-        std::string out = "\"";
-        for (char c : s) {
-            if (c == '"' || c == '\\') out += '\\';
-            if (static_cast<unsigned char>(c) >= 0x20) out += c;
+    /// Every figure as one JSON object (nlohmann::ordered_json: the keys in the order they are
+    /// set). A key set twice (index_bytes of the volume, then of its octree or implicit kd-tree;
+    /// octree_nodes) keeps the later value. Non-finite numbers are written as null.
+    [[nodiscard]] nlohmann::ordered_json to_json() const {
+        nlohmann::ordered_json j;
+        j["index"] = index;
+        j["backend"] = backend;
+        j["device"] = device;
+        j["input"] = input;
+        j["elements"] = elements;
+        j["nodes"] = nodes;
+        j["leaves"] = leaves;
+        j["max_depth"] = max_depth;
+        j["single_child_percent"] = single_child_percent;
+        j["bytes"] = bytes;
+        j["build_ms"] = build_ms;
+        j["encode_ms"] = encode_ms;
+        j["render_ms"] = render_ms;
+        j["rays_per_s"] = rays_per_s;
+        j["width"] = width;
+        j["height"] = height;
+        j["repeat"] = repeat;
+        j["ms_min"] = ms_min();
+        j["ms_median"] = ms_median();
+        j["rays_per_s_median"] = rays_per_s_median();
+        j["frame_ms"] = frame_ms;
+        j["camera"] = camera;
+        j["steps_mean"] = steps_mean;
+        j["steps_max"] = steps_max;
+        j["visible_pixels"] = visible_pixels;
+        j["errors"] = errors;
+        if (!order.empty()) j["order"] = order;
+        if (volume.present) add_volume_json(j);
+        if (kd.present) add_kd_json(j);
+        if (octree.present) {
+            j["brick_size"] = octree.brick_size;
+            j["bricks"] = octree.bricks;
+            j["octree_nodes"] = octree.octree_nodes;
+            j["octree_levels"] = octree.levels;
+            j["index_bytes"] = octree.index_bytes;
+            j["brick_bytes"] = octree.brick_bytes;
+            j["cut_nodes"] = octree.cut_nodes;
+            j["cut_leaves"] = octree.cut_leaves;
+            j["cut_deepest_level"] = octree.cut_deepest;
+            j["lod_pixels"] = json_float(octree.lod_pixels);
         }
-        return out + "\"";
+        if (ooc.present) add_ooc_json(j);
+        if (elements_octree.present) {
+            j["octree_nodes"] = elements_octree.octree_nodes;
+            j["octree_levels"] = elements_octree.levels;
+            j["references"] = elements_octree.references;
+            j["references_per_element"] = elements_octree.references_per_element;
+            j["index_bytes"] = elements_octree.index_bytes;
+            j["record_bytes"] = elements_octree.record_bytes;
+        }
+        if (iso.present) {
+            nlohmann::ordered_json isos = nlohmann::ordered_json::array();
+            for (float v : iso.isos) isos.push_back(json_float(v));
+            j["isos"] = std::move(isos);
+            j["index_bytes"] = iso.index_bytes;
+            j["cells"] = iso.cells;
+            j["levels"] = iso.levels;
+            j["cells_tested"] = iso.cells_tested;
+            j["traversal_steps"] = iso.traversal_steps;
+            j["hits"] = iso.hits;
+        }
+        return j;
     }
 
+    /// Writes to_json() to `path` (indented; bytes of names that are not UTF-8 become U+FFFD).
     void write_json(const std::string& path) const {
         std::ofstream out(path);
         if (!out) throw sylva::Error("cannot write stats file " + path);
-        out << "{\"index\": " << quoted(index) << ", \"backend\": " << quoted(backend)
-            << ", \"device\": " << quoted(device) << ", \"input\": " << quoted(input) << ", \"elements\": " << elements
-            << ", \"nodes\": " << nodes << ", \"leaves\": " << leaves << ", \"max_depth\": " << max_depth
-            << ", \"single_child_percent\": " << single_child_percent << ", \"bytes\": " << bytes
-            << ", \"build_ms\": " << build_ms << ", \"encode_ms\": " << encode_ms << ", \"render_ms\": " << render_ms
-            << ", \"rays_per_s\": " << rays_per_s << ", \"width\": " << width << ", \"height\": " << height
-            << ", \"repeat\": " << repeat << ", \"ms_min\": " << ms_min() << ", \"ms_median\": " << ms_median()
-            << ", \"rays_per_s_median\": " << rays_per_s_median() << ", \"frame_ms\": " << frame_ms_json()
-            << ", \"camera\": " << quoted(camera) << ", \"steps_mean\": " << steps_mean << ", \"steps_max\": " << steps_max
-            << ", \"visible_pixels\": " << visible_pixels << ", \"errors\": " << errors;
-        if (!order.empty()) out << ", \"order\": " << quoted(order);
-        if (volume.present) {
-            const VolumeRows& v = volume;
-            out << ", \"mode\": " << quoted(v.mode) << ", \"value_range\": [" << v.range_lo << ", " << v.range_hi
-                << "], \"value_range_source\": " << quoted(v.range_source) << ", \"data_bytes\": " << v.data_bytes
-                << ", \"voxels\": " << v.voxels
-                << ", \"grid_bytes\": " << v.grid_bytes << ", \"index_bytes\": " << v.index_bytes
-                << ", \"grid_format\": " << quoted(v.grid_format) << ", \"border\": " << quoted(v.border)
-                << ", \"grid_bytes_16bit\": " << v.grid_bytes_16bit << ", \"full_nodes\": " << v.full_nodes
-                << ", \"full_single_child_percent\": " << v.full_single_percent << ", \"full_max_depth\": " << v.full_depth
-                << ", \"full_bytes\": " << v.full_bytes << ", \"full_bytes_paper\": " << v.full_bytes_paper
-                << ", \"full_ms\": " << v.full_ms << ", \"lod_nodes\": " << v.lod_nodes << ", \"lod_leaves\": " << v.lod_leaves
-                << ", \"lod_max_depth\": " << v.lod_depth << ", \"lod_bytes\": " << v.lod_bytes << ", \"lod_ms\": " << v.lod_ms;
-        }
-        if (kd.present) write_kd_json(out);
-        if (octree.present)
-            out << ", \"brick_size\": " << octree.brick_size << ", \"bricks\": " << octree.bricks
-                << ", \"octree_nodes\": " << octree.octree_nodes << ", \"octree_levels\": " << octree.levels
-                << ", \"index_bytes\": " << octree.index_bytes << ", \"brick_bytes\": " << octree.brick_bytes
-                << ", \"cut_nodes\": " << octree.cut_nodes << ", \"cut_leaves\": " << octree.cut_leaves
-                << ", \"cut_deepest_level\": " << octree.cut_deepest << ", \"lod_pixels\": " << octree.lod_pixels;
-        if (ooc.present) write_ooc_json(out);
-        if (elements_octree.present)
-            out << ", \"octree_nodes\": " << elements_octree.octree_nodes << ", \"octree_levels\": " << elements_octree.levels
-                << ", \"references\": " << elements_octree.references
-                << ", \"references_per_element\": " << elements_octree.references_per_element
-                << ", \"index_bytes\": " << elements_octree.index_bytes
-                << ", \"record_bytes\": " << elements_octree.record_bytes;
-        if (iso.present) {
-            out << ", \"isos\": [";
-            for (std::size_t k = 0; k < iso.isos.size(); ++k) out << (k ? ", " : "") << iso.isos[k];
-            out << "], \"index_bytes\": " << iso.index_bytes << ", \"cells\": " << iso.cells
-                << ", \"levels\": " << iso.levels << ", \"cells_tested\": " << iso.cells_tested
-                << ", \"traversal_steps\": " << iso.traversal_steps << ", \"hits\": " << iso.hits;
-        }
-        out << "}\n";
+        out << to_json().dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
         if (!out) throw sylva::Error("cannot write stats file " + path);
     }
 
-    void write_ooc_json(std::ostream& out) const {
-        out << ", \"memory_budget\": " << ooc.memory_budget << ", \"device_budget\": " << ooc.device_budget
-            << ", \"host_cache_bytes\": " << ooc.host_cache_bytes << ", \"host_cache_peak_bytes\": " << ooc.host_cache_peak_bytes
-            << ", \"device_pool_bytes\": " << ooc.device_pool_bytes << ", \"device_slots\": " << ooc.device_slots
-            << ", \"bricks_loaded\": " << ooc.bricks_loaded << ", \"bricks_evicted\": " << ooc.bricks_evicted
-            << ", \"host_evicted\": " << ooc.host_evicted << ", \"device_evicted\": " << ooc.device_evicted
-            << ", \"uploads\": " << ooc.uploads << ", \"bad_bricks\": " << ooc.bad_bricks
-            << ", \"requests_cancelled\": " << ooc.cancelled << ", \"host_hit_rate\": " << ooc.host_hit_rate
-            << ", \"device_hit_rate\": " << ooc.device_hit_rate << ", \"peak_rss_bytes\": " << ooc.peak_rss_bytes
-            << ", \"feedback\": " << (ooc.feedback ? "true" : "false") << ", \"frames\": [";
-        for (std::size_t i = 0; i < ooc.frames.size(); ++i) {
-            const OocRows::FrameRow& f = ooc.frames[i];
-            out << (i ? ", " : "") << "{\"ms\": " << f.ms << ", \"update_ms\": " << f.update_ms
-                << ", \"render_ms\": " << f.render_ms << ", \"bricks_loaded\": " << f.loaded << ", \"uploads\": " << f.uploads
-                << ", \"requests\": " << f.requests << ", \"cut_nodes\": " << f.cut_nodes
-                << ", \"cut_deepest_level\": " << f.cut_deepest << "}";
-        }
-        out << "]";
+    /// A float as the double of its shortest decimal form (0.1f as 0.1, not 0.10000000149011612).
+    static double json_float(float x) {
+        if (!std::isfinite(x)) return static_cast<double>(x);
+        char buf[32];
+        auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);
+        if (ec != std::errc()) return static_cast<double>(x);
+        *end = '\0';
+        return std::strtod(buf, nullptr);
     }
 
-    void write_kd_json(std::ostream& out) const {
-        out << ", \"kd_builder\": " << quoted(kd.builder) << ", \"kd_depth\": " << quoted(kd.depth)
-            << ", \"kd_classify\": " << quoted(kd.classify) << ", \"kd_construction\": " << quoted(kd.construction)
-            << ", \"occupied\": " << kd.occupied
-            << ", \"occupancy_percent\": " << kd.occupancy_percent << ", \"culled_percent\": " << kd.culled_percent
-            << ", \"codes_ms\": " << kd.codes_ms << ", \"classify_ms\": " << kd.classify_ms
-            << ", \"occupancy_ms\": " << kd.occupancy_ms << ", \"split_ms\": " << kd.split_ms << ", \"tf_sequence\": [";
-        for (std::size_t i = 0; i < kd.rebuilds.size(); ++i) {
-            const KdRows::Rebuild& r = kd.rebuilds[i];
-            out << (i ? ", " : "") << "{\"tf\": " << quoted(r.tf) << ", \"occupancy_percent\": " << r.occupancy_percent
-                << ", \"culled_percent\": " << r.culled_percent << ", \"nodes\": " << r.nodes
-                << ", \"leaves\": " << r.leaves << ", \"max_depth\": " << r.depth << ", \"bytes\": " << r.bytes
-                << ", \"codes_ms\": " << r.codes_ms << ", \"classify_ms\": " << r.classify_ms
-                << ", \"occupancy_ms\": " << r.occupancy_ms << ", \"split_ms\": " << r.split_ms
-                << ", \"rebuild_ms\": " << r.rebuild_ms() << ", \"render_ms\": " << r.render_ms << "}";
-        }
-        out << "]";
+    void add_volume_json(nlohmann::ordered_json& j) const {
+        const VolumeRows& v = volume;
+        j["mode"] = v.mode;
+        j["value_range"] = {json_float(v.range_lo), json_float(v.range_hi)};
+        j["value_range_source"] = v.range_source;
+        j["data_bytes"] = v.data_bytes;
+        j["voxels"] = v.voxels;
+        j["grid_bytes"] = v.grid_bytes;
+        j["index_bytes"] = v.index_bytes;
+        j["grid_format"] = v.grid_format;
+        j["border"] = v.border;
+        j["grid_bytes_16bit"] = v.grid_bytes_16bit;
+        j["full_nodes"] = v.full_nodes;
+        j["full_single_child_percent"] = v.full_single_percent;
+        j["full_max_depth"] = v.full_depth;
+        j["full_bytes"] = v.full_bytes;
+        j["full_bytes_paper"] = v.full_bytes_paper;
+        j["full_ms"] = v.full_ms;
+        j["lod_nodes"] = v.lod_nodes;
+        j["lod_leaves"] = v.lod_leaves;
+        j["lod_max_depth"] = v.lod_depth;
+        j["lod_bytes"] = v.lod_bytes;
+        j["lod_ms"] = v.lod_ms;
+    }
+
+    void add_ooc_json(nlohmann::ordered_json& j) const {
+        j["memory_budget"] = ooc.memory_budget;
+        j["device_budget"] = ooc.device_budget;
+        j["host_cache_bytes"] = ooc.host_cache_bytes;
+        j["host_cache_peak_bytes"] = ooc.host_cache_peak_bytes;
+        j["device_pool_bytes"] = ooc.device_pool_bytes;
+        j["device_slots"] = ooc.device_slots;
+        j["bricks_loaded"] = ooc.bricks_loaded;
+        j["bricks_evicted"] = ooc.bricks_evicted;
+        j["host_evicted"] = ooc.host_evicted;
+        j["device_evicted"] = ooc.device_evicted;
+        j["uploads"] = ooc.uploads;
+        j["bad_bricks"] = ooc.bad_bricks;
+        j["requests_cancelled"] = ooc.cancelled;
+        j["host_hit_rate"] = ooc.host_hit_rate;
+        j["device_hit_rate"] = ooc.device_hit_rate;
+        j["peak_rss_bytes"] = ooc.peak_rss_bytes;
+        j["feedback"] = ooc.feedback;
+        nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+        for (const OocRows::FrameRow& f : ooc.frames)
+            frames.push_back({{"ms", f.ms},
+                              {"update_ms", f.update_ms},
+                              {"render_ms", f.render_ms},
+                              {"bricks_loaded", f.loaded},
+                              {"uploads", f.uploads},
+                              {"requests", f.requests},
+                              {"cut_nodes", f.cut_nodes},
+                              {"cut_deepest_level", f.cut_deepest}});
+        j["frames"] = std::move(frames);
+    }
+
+    void add_kd_json(nlohmann::ordered_json& j) const {
+        j["kd_builder"] = kd.builder;
+        j["kd_depth"] = kd.depth;
+        j["kd_classify"] = kd.classify;
+        j["kd_construction"] = kd.construction;
+        j["occupied"] = kd.occupied;
+        j["occupancy_percent"] = kd.occupancy_percent;
+        j["culled_percent"] = kd.culled_percent;
+        j["codes_ms"] = kd.codes_ms;
+        j["classify_ms"] = kd.classify_ms;
+        j["occupancy_ms"] = kd.occupancy_ms;
+        j["split_ms"] = kd.split_ms;
+        nlohmann::ordered_json seq = nlohmann::ordered_json::array();
+        for (const KdRows::Rebuild& r : kd.rebuilds)
+            seq.push_back({{"tf", r.tf},
+                           {"occupancy_percent", r.occupancy_percent},
+                           {"culled_percent", r.culled_percent},
+                           {"nodes", r.nodes},
+                           {"leaves", r.leaves},
+                           {"max_depth", r.depth},
+                           {"bytes", r.bytes},
+                           {"codes_ms", r.codes_ms},
+                           {"classify_ms", r.classify_ms},
+                           {"occupancy_ms", r.occupancy_ms},
+                           {"split_ms", r.split_ms},
+                           {"rebuild_ms", r.rebuild_ms()},
+                           {"render_ms", r.render_ms}});
+        j["tf_sequence"] = std::move(seq);
     }
 };
 

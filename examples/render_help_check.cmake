@@ -1,0 +1,36 @@
+# examples.sylva_render.cli_help: sylva-render --help (and -h, also after bad options) exits 0 with
+# the help on stdout and nothing on stderr; the help lists every option that options.cpp registers
+# (each at the start of a help line) and the groups of the old usage text.
+#   cmake -DEXE=<sylva-render> -DSOURCE=<options.cpp> -P render_help_check.cmake
+execute_process(COMMAND ${EXE} --help RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+message("${out}${err}")
+if(NOT rc EQUAL 0 OR NOT err STREQUAL "")
+  message(FATAL_ERROR "--help: exit status ${rc} (expected 0), stderr '${err}' (expected empty)")
+endif()
+execute_process(COMMAND ${EXE} --count 0 --frobnicate -h RESULT_VARIABLE rc2 OUTPUT_VARIABLE out2 ERROR_VARIABLE err2)
+if(NOT rc2 EQUAL 0 OR NOT out2 STREQUAL out OR NOT err2 STREQUAL "")
+  message(FATAL_ERROR "-h after bad options: exit status ${rc2} (expected 0), or its text differs from --help's")
+endif()
+file(STRINGS ${SOURCE} lines REGEX "\\.(text|choice|number|converted|checked|flag|on_off)\\(\"(-o,)?--[a-z-]+\"")
+set(opts "-h,--help")
+foreach(line IN LISTS lines)
+  string(REGEX MATCH "\\(\"((-o,)?--[a-z-]+)\"" _ "${line}")
+  list(APPEND opts "${CMAKE_MATCH_1}")
+endforeach()
+list(LENGTH opts n)
+if(n LESS 57)  # the 56 options of sylva-render and -h,--help
+  message(FATAL_ERROR "found only ${n} options registered in ${SOURCE}")
+endif()
+foreach(opt IN LISTS opts)
+  if(NOT out MATCHES "\n  ${opt}[ \n]")
+    message(FATAL_ERROR "--help does not list ${opt}")
+  endif()
+endforeach()
+foreach(group "particles (" "moving particles (" "volumes (" "kd-trees (" "isosurfaces (" "octree (" "out of core ("
+              "Exit status: 0 done, 1 error, 2 bad usage")
+  string(FIND "${out}" "${group}" at)
+  if(at LESS 0)
+    message(FATAL_ERROR "--help lacks '${group}'")
+  endif()
+endforeach()
+message("--help lists all ${n} options")
