@@ -264,3 +264,21 @@ TEST_CASE("refit: element octree refit refuses a bad margin and a tree not store
     CHECK(octree::refit_elements(et, s, cfg, pool));
     CHECK(octree::encode_elements(et) == before);  // a refit in place of the same positions
 }
+
+TEST_CASE("refit: an element octree rebuild over a bad element throws and keeps the tree", "[octree]") {
+    ThreadPool pool(2);
+    auto es = testing::random_spheres(3000, 261);
+    octree::ElementConfig cfg;
+    auto et = octree::build_elements(std::span<const Sphere>(es), cfg, pool);
+    auto before = octree::encode_elements(et);
+    auto bad = es;
+    bad[1234].center.y = std::numeric_limits<float>::quiet_NaN();
+    CHECK_THROWS_WITH(octree::rebuild_elements(et, std::span<const Sphere>(bad), cfg, pool), Catch::Contains("element 1234"));
+    CHECK(octree::encode_elements(et) == before);
+    CHECK_THROWS_WITH(octree::refit_elements(et, std::span<const Sphere>(bad), cfg, pool), Catch::Contains("element 1234"));
+    CHECK(octree::encode_elements(et) == before);
+    octree::ElementConfig wrong;
+    wrong.max_growth = 9.0f;
+    CHECK_THROWS_WITH(octree::rebuild_elements(et, std::span<const Sphere>(es), wrong, pool), Catch::Contains("max_growth"));
+    CHECK(octree::encode_elements(et) == before);
+}

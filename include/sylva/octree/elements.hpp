@@ -415,23 +415,32 @@ inline void root_list(ElementScratch& sc) {
     sc.first[0].assign({std::size_t{0}, l.size()});
 }
 
-/// Builds `et` anew over `elements` into its own arrays (nodes, references, scratch).
+/// Builds `et` anew over `elements` into its own arrays (nodes, references, scratch). A bad
+/// configuration or element throws before `et` is touched; where the build throws after it
+/// started rewriting `et` (memory, more than 2^32 - 1 references), `et` is left empty (no
+/// nodes), never half built.
 template <Bounded E, Executor X>
 void build_into(ElementTree& et, std::span<const E> elements, const ElementConfig& cfg, X& exec) {
     auto start = std::chrono::steady_clock::now();
     check_config(cfg);
     if (elements.size() >= 0xFFFFFFFFu) throw Error("octree::build_elements: too many elements for 32-bit references");
-    et.element_count = elements.size();
-    Tree& t = et.tree;
-    t.nodes.clear();
-    t.bricks.clear();
-    lattice(et, scene_box(elements), cfg);
-    cell_boxes(elements, et, cfg.overlap_pad, et.scratch.boxes, exec);
-    root_list(et.scratch);
-    t.nodes.push_back(Node{});
-    distribute(et, cfg, false, exec);
+    const Aabb scene = scene_box(elements);  // throws naming a non-finite element box
+    try {
+        et.element_count = elements.size();
+        Tree& t = et.tree;
+        t.nodes.clear();
+        t.bricks.clear();
+        lattice(et, scene, cfg);
+        cell_boxes(elements, et, cfg.overlap_pad, et.scratch.boxes, exec);
+        root_list(et.scratch);
+        t.nodes.push_back(Node{});
+        distribute(et, cfg, false, exec);
+    } catch (...) {
+        et = ElementTree{};
+        throw;
+    }
     et.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    t.build_ms = et.build_ms;
+    et.tree.build_ms = et.build_ms;
 }
 
 }  // namespace detail

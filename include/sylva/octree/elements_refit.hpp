@@ -59,14 +59,21 @@ bool refit_elements(ElementTree& et, std::span<const E> elements, const ElementC
     if (children != et.tree.nodes.size())
         throw Error("octree::refit_elements: the tree's child pointers do not cover its nodes");
     detail::root_list(sc);
-    detail::distribute(et, cfg, true, exec);
+    try {
+        detail::distribute(et, cfg, true, exec);
+    } catch (...) {
+        et = ElementTree{};  // the lists were being rewritten: empty, never half listed
+        throw;
+    }
     et.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return true;
 }
 
 /// Builds `et` anew over `elements`: the same tree as build_elements(elements, cfg), into et's
 /// own node, reference and scratch arrays (no allocation once their capacities suffice; the
-/// scratch is kept for the next frame).
+/// scratch is kept for the next frame). Throws as build_elements does: a bad configuration or
+/// element leaves `et` as it was; a failure while building (memory, more than 2^32 - 1
+/// references) leaves it empty.
 template <Bounded E, Executor X>
 void rebuild_elements(ElementTree& et, std::span<const E> elements, const ElementConfig& cfg, X& exec) {
     detail::build_into(et, elements, cfg, exec);
