@@ -44,9 +44,6 @@
 #include <sylva/render/octree_particles.hpp>
 #include <sylva/render/particles.hpp>
 #ifdef SYLVA_RENDER_VULKAN
-#include <sylva/spirv/elements_sphere.h>
-#include <sylva/spirv/elements_sphere_kd.h>
-#include <sylva/spirv/elements_sphere_octree.h>
 #include <sylva/vulkan/bih.hpp>
 #include <sylva/vulkan/elements.hpp>
 #include <sylva/vulkan/octree_particles.hpp>
@@ -156,10 +153,7 @@ public:
         ctx_ = std::make_unique<sylva::vk::Context>(sylva::vk::Context::create());
         device_ = ctx_->describe();
         if (o.order == "exact") {
-            std::span<const std::uint32_t> spirv = o.index == "kd"       ? std::span<const std::uint32_t>(sylva::spirv::elements_sphere_kd)
-                                                   : o.index == "octree" ? std::span<const std::uint32_t>(sylva::spirv::elements_sphere_octree)
-                                                                         : std::span<const std::uint32_t>(sylva::spirv::elements_sphere);
-            elements_ = std::make_unique<sylva::vk::ElementKernel>(*ctx_, spirv);
+            elements_ = std::make_unique<sylva::vk::ElementKernel>(*ctx_, exact_kernel_spirv(o));
         } else if (o.index == "bih") {
             particles_ = std::make_unique<sylva::vk::ParticleKernel>(*ctx_);
         }

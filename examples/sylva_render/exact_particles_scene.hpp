@@ -64,6 +64,16 @@ inline std::vector<sylva::Sphere> in_bih_order(const Options& o, std::span<const
     return out;
 }
 
+#ifdef SYLVA_RENDER_VULKAN
+/// The generic element kernel's SPIR-V for --index: the sphere over a BIH, the kd-tree or the
+/// element octree (still frames and --animate use the same choice).
+inline std::span<const std::uint32_t> exact_kernel_spirv(const Options& o) {
+    if (o.index == "kd") return sylva::spirv::elements_sphere_kd;
+    if (o.index == "octree") return sylva::spirv::elements_sphere_octree;
+    return sylva::spirv::elements_sphere;
+}
+#endif
+
 /// Renders `words` (an encoding of --index: a BIH of record ranges, an element kd-tree or an
 /// element octree) and `records` (pack_elements: in the BIH's order, else the caller's) through
 /// the generic element kernel on --backend; names the device in `device`.
@@ -85,12 +95,11 @@ inline sylva::Frame render_exact_particles(const Options& o, std::span<const std
     vk::DeviceRecords recs(ctx, records, element_words<Sphere>());
     if (o.index == "bih") {
         vk::DeviceBih bih(ctx, words);
-        vk::ElementKernel kernel(ctx, spirv::elements_sphere);
+        vk::ElementKernel kernel(ctx, exact_kernel_spirv(o));
         return kernel.render(bih, recs, cam, o.width, o.height, rc);
     }
     vk::DeviceElementIndex index(ctx, words);
-    vk::ElementKernel kernel(ctx, o.index == "kd" ? std::span<const std::uint32_t>(spirv::elements_sphere_kd)
-                                                  : std::span<const std::uint32_t>(spirv::elements_sphere_octree));
+    vk::ElementKernel kernel(ctx, exact_kernel_spirv(o));
     return kernel.render(index, recs, cam, o.width, o.height, rc);
 #else
     throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
