@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # store.cli_*: sylva-store's command line under faults.
-#   cli_faults.sh SYLVA_STORE kill     kill -9 the builder at random points (4 runs): verify then
+#   cli_faults.sh SYLVA_STORE kill     kill -9 the builder at once and at random points (5 runs): verify then
 #                                      says complete (0) or incomplete (1), never crashes; build
 #                                      --resume finishes it to the content of an uninterrupted build
 #   cli_faults.sh SYLVA_STORE full     a map too small for the store (a full disk): exit 3 with the
@@ -24,8 +24,9 @@ kill)
   want=$(digest "$work/ref")
   [[ -n $want ]] || fail "no digest"
   seen_incomplete=0
-  # Four random kill points in the build (printed, so a failure can be replayed), one early.
-  delays="0.03 $(for i in 1 2 3; do awk -v r=$RANDOM 'BEGIN { printf "%.2f ", 0.05 + (r % 600) / 1000 }'; done)"
+  # Kill points (printed, so a failure can be replayed): at once (before the store exists, which
+  # under a sanitizer 0.03 s can be too), one early, three at random.
+  delays="0 0.03 $(for i in 1 2 3; do awk -v r=$RANDOM 'BEGIN { printf "%.2f ", 0.05 + (r % 600) / 1000 }'; done)"
   for delay in $delays; do
     s="$work/s-$delay"
     "$tool" "${args[@]}" -o "$s" &
@@ -39,7 +40,14 @@ kill)
       seen_incomplete=1
       grep -q "INCOMPLETE\|no such store\|not a sylva brick store" "$work/verify.txt" || { cat "$work/verify.txt"; fail "verify exit 1 without saying incomplete (delay $delay)"; }
       grep -q "CORRUPT" "$work/verify.txt" && { cat "$work/verify.txt"; fail "a killed build left a corrupt brick"; }
-      "$tool" "${args[@]}" -o "$s" --resume || fail "resume after kill at $delay s"
+      if [[ ! -e $s ]]; then
+        # Killed before it made the directory: nothing to resume (--resume refuses a missing
+        # store), so the build runs again from the start.
+        grep -q "no such store" "$work/verify.txt" || { cat "$work/verify.txt"; fail "no store, but verify did not say so"; }
+        "$tool" "${args[@]}" -o "$s" || fail "build again after kill at $delay s"
+      else
+        "$tool" "${args[@]}" -o "$s" --resume || fail "resume after kill at $delay s"
+      fi
     elif ((rc != 0)); then
       cat "$work/verify.txt"; fail "verify exit $rc after kill at $delay s"
     fi
