@@ -12,6 +12,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config   # compiler and build tools
+  ccache                             # scripts/test.sh compiles through it: a second build recompiles only what changed
   libglm-dev                         # math on the host (GLSL names and semantics)
   catch2                             # unit tests (Catch2 v2)
   libopenimageio-dev                 # images written by sylva-render
