@@ -186,10 +186,10 @@ TEST_CASE("one vk::ParticleKernel renders frames over BIHs that change, as rende
     using Catch::Matchers::Contains;
     vk::Context ctx = vk::Context::create();
     vk::ParticleKernel kernel(ctx);
-    // Three "frames": two BIHs of different depths (a different pipeline each), then the first
-    // again (its kept pipeline); each frame's BIH and records uploaded anew, as sylva-render
-    // --animate does.
-    auto small = io::synthetic_galaxy(500, 11), large = io::synthetic_galaxy(6000, 12);
+    // Three "frames": two BIHs in different depth buckets (vk::stack_entries_for: depth ~14 ->
+    // 16 entries, ~27 -> 32; a different pipeline each), then the first again (its kept
+    // pipeline); each frame's BIH and records uploaded anew, as sylva-render --animate does.
+    auto small = io::synthetic_galaxy(40, 11), large = io::synthetic_galaxy(6000, 12);
     std::vector<std::uint32_t> depths;
     for (const std::vector<Sphere>* spheres : {&small, &large, &small}) {
         std::span<const Sphere> es(*spheres);

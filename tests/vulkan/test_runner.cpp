@@ -291,3 +291,21 @@ TEST_CASE("dispatch checks buffers and push constants against the kernel", "[vul
     CHECK_THROWS_AS(context.dispatch(kernel, two, &count, 4, UINT32_MAX), sylva::Error);
     CHECK_NOTHROW(context.dispatch(kernel, two, &count, 4, 1));
 }
+
+TEST_CASE("stacks are sized in power-of-two buckets that hold the tree, within the cap", "[vulkan]") {
+    // Kernels are specialised for the stack size, so trees of similar depth share one pipeline.
+    CHECK(sylva::vk::stack_entries_for(0, 64) == 8u);
+    CHECK(sylva::vk::stack_entries_for(8, 64) == 8u);
+    CHECK(sylva::vk::stack_entries_for(9, 64) == 16u);
+    CHECK(sylva::vk::stack_entries_for(27, 64) == 32u);
+    CHECK(sylva::vk::stack_entries_for(33, 64) == 64u);
+    CHECK(sylva::vk::stack_entries_for(64, 64) == 64u);
+    CHECK(sylva::vk::stack_entries_for(40, 48) == 48u);  // capped, still holding the tree
+    CHECK(sylva::vk::stack_entries_for(3, 4) == 4u);
+    for (std::uint32_t d = 0; d <= 64; ++d) {
+        std::uint32_t e = sylva::vk::stack_entries_for(d, 64);
+        CHECK(e >= d);
+        CHECK(e <= 64u);
+        CHECK(e <= std::max(8u, 2 * d));
+    }
+}

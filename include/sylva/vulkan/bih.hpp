@@ -35,8 +35,10 @@ public:
     }
     /// The payload kind (header bits 8-15).
     [[nodiscard]] std::uint32_t kind() const { return kind_; }
-    /// Specialization constants: split shift, and a stack sized to the tree's depth.
-    [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {words_.shift, std::max(depth_, 1u)}; }
+    /// Specialization constants: split shift, and a stack for the tree's depth (stack_entries_for).
+    [[nodiscard]] std::array<std::uint32_t, 2> constants() const {
+        return {words_.shift, stack_entries_for(depth_, SYLVA_BIH_DEPTH_CAP)};
+    }
     [[nodiscard]] std::uint32_t word_count() const { return word_count_; }
     [[nodiscard]] Buffer* part(std::size_t i) { return &words_.parts[i]; }
 

@@ -52,10 +52,10 @@ public:
     }
 
     /// Specialization constants of kd_dvr.comp: grid shift and parts, kd shift and parts,
-    /// stack entries (the tree's depth, at least 1).
+    /// stack entries (for the tree's depth, stack_entries_for).
     [[nodiscard]] std::array<std::uint32_t, 5> constants(const DeviceGrid& grid) const {
         auto g = grid.constants();
-        return {g[0], g[1], words_.shift, used_parts(word_count_, words_.shift), std::max(header_.max_depth, 1u)};
+        return {g[0], g[1], words_.shift, used_parts(word_count_, words_.shift), stack_entries_for(header_.max_depth, SYLVA_KD_DEPTH_CAP)};
     }
 
 private:

@@ -5,6 +5,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <fstream>
@@ -184,6 +185,18 @@ private:
     std::uint32_t buffer_count_ = 0;
     std::uint32_t push_bytes_ = 0;
 };
+
+/// The traversal stack a kernel is specialised for, for a tree `depth` levels deep whose
+/// structure caps depths at `cap`: the next power of two at or above the depth, at least 8,
+/// at most the cap. Trees of similar depth then share one pipeline: a tree rebuilt after a
+/// transfer-function edit or a frame of moving elements rarely leaves its bucket, and each
+/// new stack size would be a new pipeline (lavapipe compiles one in 5-250 s; see
+/// docs/DESIGN.md, "Pipelines"). The stack is at most twice what the tree needs.
+[[nodiscard]] inline std::uint32_t stack_entries_for(std::uint32_t depth, std::uint32_t cap) {
+    std::uint32_t entries = 8;
+    while (entries < depth && entries < cap) entries <<= 1;
+    return std::max(std::min(entries, cap), depth);
+}
 
 /// Reads a SPIR-V module from a .spv file (for shaders compiled outside the build; embedded
 /// arrays from sylva_add_spirv need no file). Throws sylva::Error naming the file when it cannot
