@@ -5,12 +5,20 @@
 # `bash scripts/test.sh` there as root, with ../shared beside the clone (read-only) when it exists.
 # Anything the two commands need that scripts/deps.sh does not install fails here, whatever this
 # machine has installed. Run it before every release, and after changing scripts/deps.sh:
-#   sudo bash scripts/fresh-check.sh [WORKDIR]     (default /var/tmp/sylva-fresh; ~10 min, ~2 GB)
+#   sudo bash scripts/fresh-check.sh [--ci] [WORKDIR]  (default /var/tmp/sylva-fresh; ~45 min, ~3 GB)
+# --ci runs CI's whole job (.ci/run: fuzz, TSan, ASan+UBSan, then the test command) instead of
+# the test command alone, and prints each command's time: CI's time on a new machine (no
+# compiler cache, no mesa shader cache), which must stay under CI's 90 minutes (~8 GB).
 # Needs root (chroot, mounts) and the Debian mirror. Commit first: it checks HEAD, not the work
 # tree. Logs: WORKDIR/render.log, WORKDIR/test.log; WORKDIR/installed.txt lists what deps.sh
 # installed on top of minbase. Exit status: 0 when both commands succeed.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+commands=(scripts/render.sh scripts/test.sh)
+if [[ ${1:-} == --ci ]]; then
+  commands=(scripts/render.sh .ci/run)
+  shift
+fi
 work=${1:-/var/tmp/sylva-fresh}
 chroot_dir="$work/debian12"
 mirror=${SYLVA_DEBIAN_MIRROR:-http://deb.debian.org/debian}
@@ -60,18 +68,20 @@ git clone -q "$root" "$chroot_dir/work/sylva"
 echo "fresh-check: $(git -C "$root" log -1 --format='%h %s' | cut -c1-80)" >&2
 
 status=0
-for cmd in render test; do
-  echo "fresh-check: bash scripts/$cmd.sh (log: $work/$cmd.log)" >&2
+for cmd in "${commands[@]}"; do
+  log="$work/$(basename "$cmd" .sh).log"
+  echo "fresh-check: bash $cmd (log: $log)" >&2
+  start=$SECONDS
   if chroot "$chroot_dir" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root CI=true \
-    bash -c "cd /work/sylva && bash scripts/$cmd.sh" </dev/null >"$work/$cmd.log" 2>&1; then
-    echo "fresh-check: scripts/$cmd.sh succeeded" >&2
+    bash -c "cd /work/sylva && bash $cmd" </dev/null >"$log" 2>&1; then
+    echo "fresh-check: $cmd succeeded in $((SECONDS - start)) s" >&2
   else
-    echo "fresh-check: scripts/$cmd.sh FAILED; its last lines:" >&2
-    tail -25 "$work/$cmd.log" >&2
+    echo "fresh-check: $cmd FAILED after $((SECONDS - start)) s; its last lines:" >&2
+    tail -25 "$log" >&2
     status=1
   fi
 done
-grep -E '^[0-9]+% tests passed|tests failed out of' "$work/test.log" >&2 || true
+grep -hE '^[0-9]+% tests passed|tests failed out of|^ci: ----.* took' "$work/test.log" "$work/run.log" 2>/dev/null >&2 || true
 chroot "$chroot_dir" dpkg-query -W -f='${Package}\n' | sort | comm -13 "$work/minbase.txt" - >"$work/installed.txt"
 echo "fresh-check: $(wc -l <"$work/installed.txt") packages installed on top of minbase ($work/installed.txt)" >&2
 exit $status
