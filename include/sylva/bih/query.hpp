@@ -553,7 +553,9 @@ private:
             const float* f = records_[k].c;
             __m128 a = _mm_loadu_ps(f), b = _mm_loadu_ps(f + 4), c = _mm_loadu_ps(f + 8), d = _mm_loadu_ps(f + 12);
             _MM_TRANSPOSE4_PS(a, b, c, d);
-            __m128 t0, t1;
+            // Set by sphere4 whenever mask is non-zero; zeroed so that GCC 12 at -Og (the
+            // sanitizer builds) does not take the stores below for uses of uninitialised values.
+            __m128 t0 = _mm_setzero_ps(), t1 = _mm_setzero_ps();
             int mask = detail::sphere4(p, a, b, c, d, t0, t1) & ((1 << std::min(first + count - k, 4u)) - 1);
             if (!mask) continue;
             alignas(16) float lo[4], hi[4];
