@@ -10,8 +10,9 @@
 # the test command alone, and prints each command's time: CI's time on a new machine (no
 # compiler cache, no mesa shader cache), which must stay under CI's 90 minutes (~8 GB).
 # Needs root (chroot, mounts) and the Debian mirror. Commit first: it checks HEAD, not the work
-# tree. Logs: WORKDIR/render.log, WORKDIR/test.log; WORKDIR/installed.txt lists what deps.sh
-# installed on top of minbase. Exit status: 0 when both commands succeed.
+# tree. Logs: WORKDIR/render.log, WORKDIR/test.log (with --ci: WORKDIR/run.log);
+# WORKDIR/installed.txt lists what deps.sh installed on top of minbase. Exit status: 0 when both
+# commands succeed.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 commands=(scripts/render.sh scripts/test.sh)
