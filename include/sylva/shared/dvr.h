@@ -57,18 +57,27 @@ SYLVA_FN SylvaGridDesc sylva_dvr_grid(SylvaDvrParams p) {
     return g;
 }
 
-/// Classifies, shades and composites one marcher sample of density `density` at x.
-SYLVA_FN void sylva_dvr_march_sample(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(grid), SYLVA_BUF(tf), SylvaDvrParams p,
-                                     vec3 x, float density, vec3 d, float units) {
+/// Classifies, shades and composites one marcher sample of density `density` at x of the grid g
+/// (sylva_dvr_grid(p), built once a ray by the caller and passed by reference on the host: a
+/// descriptor rebuilt and copied every sample cost the host marcher 2.7x its speed in
+/// store-to-load stalls, docs/DESIGN.md).
+SYLVA_FN void sylva_dvr_march_sample_in(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(grid), SYLVA_BUF(tf), SylvaDvrParams p,
+                                        SYLVA_IN(SylvaGridDesc) g, vec3 x, float density, vec3 d, float units) {
     vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, density);
     float a = sylva_dvr_opacity(p, c.w, units);
     if (a <= 0.0f) return;
     vec3 rgb = vec3(c.x, c.y, c.z);
     if ((p.flags & SYLVA_DVR_FLAG_SHADING) != 0u) {
-        vec3 g = sylva_grid_sample_gradient(SYLVA_PASS_BUF(grid), sylva_dvr_grid(p), x);
-        rgb = sylva_dvr_shade(p, rgb, vec3(g.x / p.spacing.x, g.y / p.spacing.y, g.z / p.spacing.z), d);
+        vec3 gr = sylva_grid_sample_gradient(SYLVA_PASS_BUF(grid), g, x);
+        rgb = sylva_dvr_shade(p, rgb, vec3(gr.x / p.spacing.x, gr.y / p.spacing.y, gr.z / p.spacing.z), d);
     }
     sylva_dvr_blend(acc, rgb, a);
+}
+
+/// Classifies, shades and composites one marcher sample of density `density` at x.
+SYLVA_FN void sylva_dvr_march_sample(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(grid), SYLVA_BUF(tf), SylvaDvrParams p,
+                                     vec3 x, float density, vec3 d, float units) {
+    sylva_dvr_march_sample_in(acc, SYLVA_PASS_BUF(grid), SYLVA_PASS_BUF(tf), p, sylva_dvr_grid(p), x, density, d, units);
 }
 
 /// Marches the ray origin + t * direction (direction normalised here, so t is world distance)
@@ -84,13 +93,14 @@ SYLVA_FN vec4 sylva_dvr_march(SYLVA_BUF(grid), SYLVA_BUF(tf), SylvaDvrParams p, 
         return vec4(0.0f);
     }
     float units = p.dt / p.unit;
+    SylvaGridDesc g = sylva_dvr_grid(p);
     for (uint k = sylva_lattice_first(span.x, p.dt); steps < SYLVA_DVR_MAX_SAMPLES; k++) {
         float t = sylva_lattice_t(k, p.dt);
         if (!(t < span.y) || acc.alpha >= p.alpha_stop) break;
         steps = steps + 1u;
         vec3 x = sylva_dvr_at(origin, d, t);
-        float density = sylva_grid_sample(SYLVA_PASS_BUF(grid), sylva_dvr_grid(p), x);
-        if (density > 0.0f) sylva_dvr_march_sample(acc, SYLVA_PASS_BUF(grid), SYLVA_PASS_BUF(tf), p, x, density, d, units);
+        float density = sylva_grid_sample(SYLVA_PASS_BUF(grid), g, x);
+        if (density > 0.0f) sylva_dvr_march_sample_in(acc, SYLVA_PASS_BUF(grid), SYLVA_PASS_BUF(tf), p, g, x, density, d, units);
     }
     return sylva_dvr_result(acc);
 }

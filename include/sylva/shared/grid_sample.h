@@ -73,7 +73,7 @@ SYLVA_FN float sylva_grid_lerp(float a, float b, float f) {
 }
 
 /// Normalised density of voxel index i (< the voxel count) in g's format.
-SYLVA_FN float sylva_grid_word_density(SYLVA_BUF(grid), SylvaGridDesc g, uint i) {
+SYLVA_FN float sylva_grid_word_density(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint i) {
     if (g.format == SYLVA_GRID_F32) return uintBitsToFloat(SYLVA_LOAD(grid, i));
     uint raw;
     if (g.format == SYLVA_GRID_U8) {
@@ -86,7 +86,7 @@ SYLVA_FN float sylva_grid_word_density(SYLVA_BUF(grid), SylvaGridDesc g, uint i)
 }
 
 /// Density of voxel (x, y, z); indices must be inside dims (reads past the buffer give 0).
-SYLVA_FN float sylva_grid_voxel_of(SYLVA_BUF(grid), SylvaGridDesc g, uint x, uint y, uint z) {
+SYLVA_FN float sylva_grid_voxel_of(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint x, uint y, uint z) {
     return sylva_grid_word_density(SYLVA_PASS_BUF(grid), g, x + g.dims.x * (y + g.dims.y * z));
 }
 
@@ -103,7 +103,7 @@ SYLVA_FN float sylva_grid_index(float p, float s, uint n) {
 
 /// The trilinear blend of the eight voxels {i0, i1} per axis (inside the grid) with weights f:
 /// x first, then y, then z.
-SYLVA_FN float sylva_grid_trilinear(SYLVA_BUF(grid), SylvaGridDesc g, uvec3 i0, uvec3 i1, vec3 f) {
+SYLVA_FN float sylva_grid_trilinear(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uvec3 i0, uvec3 i1, vec3 f) {
     float c00 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z),
                                 sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i0.z), f.x);
     float c10 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i0.z),
@@ -116,7 +116,7 @@ SYLVA_FN float sylva_grid_trilinear(SYLVA_BUF(grid), SylvaGridDesc g, uvec3 i0, 
 }
 
 /// Density of the voxel at signed coordinates (x, y, z): border_value outside the grid.
-SYLVA_FN float sylva_grid_voxel_or_border(SYLVA_BUF(grid), SylvaGridDesc g, int x, int y, int z) {
+SYLVA_FN float sylva_grid_voxel_or_border(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, int x, int y, int z) {
     if (x < 0 || y < 0 || z < 0 || uint(x) >= g.dims.x || uint(y) >= g.dims.y || uint(z) >= g.dims.z) {
         return g.border_value;
     }
@@ -124,7 +124,7 @@ SYLVA_FN float sylva_grid_voxel_or_border(SYLVA_BUF(grid), SylvaGridDesc g, int 
 }
 
 /// Trilinear density at world point p, border constant (SYLVA_BORDER_CONSTANT).
-SYLVA_FN float sylva_grid_sample_constant(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+SYLVA_FN float sylva_grid_sample_constant(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, vec3 p) {
     SYLVA_PRECISE vec3 v = vec3(p.x / g.spacing.x - 0.5f, p.y / g.spacing.y - 0.5f, p.z / g.spacing.z - 0.5f);
     vec3 u = vec3(sylva_grid_clamp(v.x, -1.0f, float(g.dims.x)), sylva_grid_clamp(v.y, -1.0f, float(g.dims.y)),
                   sylva_grid_clamp(v.z, -1.0f, float(g.dims.z)));
@@ -150,7 +150,7 @@ SYLVA_FN float sylva_grid_sample_constant(SYLVA_BUF(grid), SylvaGridDesc g, vec3
 }
 
 /// Trilinear density at world point p, edges clamped (SYLVA_BORDER_CLAMP).
-SYLVA_FN float sylva_grid_sample_clamped(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+SYLVA_FN float sylva_grid_sample_clamped(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, vec3 p) {
     uvec3 dims = g.dims;
     vec3 u = vec3(sylva_grid_index(p.x, g.spacing.x, dims.x), sylva_grid_index(p.y, g.spacing.y, dims.y),
                   sylva_grid_index(p.z, g.spacing.z, dims.z));
@@ -162,7 +162,7 @@ SYLVA_FN float sylva_grid_sample_clamped(SYLVA_BUF(grid), SylvaGridDesc g, vec3 
 }
 
 /// Trilinear density at world point p of the grid g (format and border mode of g).
-SYLVA_FN float sylva_grid_sample(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+SYLVA_FN float sylva_grid_sample(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, vec3 p) {
     if (g.border == SYLVA_BORDER_CONSTANT) return sylva_grid_sample_constant(SYLVA_PASS_BUF(grid), g, p);
     return sylva_grid_sample_clamped(SYLVA_PASS_BUF(grid), g, p);
 }
@@ -171,7 +171,7 @@ SYLVA_FN float sylva_grid_sample(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
 /// (d(p + s e_i) - d(p - s e_i)) / 2 per axis, i.e. the change of density across one voxel
 /// (the convention of the voxel payload, sylva/shared/voxel.h). Divide by spacing for the
 /// world-space gradient. Samples outside the grid follow g's border mode.
-SYLVA_FN vec3 sylva_grid_sample_gradient(SYLVA_BUF(grid), SylvaGridDesc g, vec3 p) {
+SYLVA_FN vec3 sylva_grid_sample_gradient(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, vec3 p) {
     vec3 s = g.spacing;
     SYLVA_PRECISE vec3 px0 = vec3(p.x - s.x, p.y, p.z);
     SYLVA_PRECISE vec3 px1 = vec3(p.x + s.x, p.y, p.z);

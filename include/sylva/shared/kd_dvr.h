@@ -77,15 +77,16 @@ SYLVA_FN vec2 sylva_kd_dvr_leaf_span(SYLVA_BUF(words), vec3 org, vec3 rcp, uvec3
 SYLVA_FN uint sylva_kd_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(grid), SYLVA_BUF(tf), SylvaDvrParams p,
                                    vec3 origin, vec3 d, uint k_first, float t_end, SYLVA_INOUT(uint) samples) {
     float units = p.dt / p.unit;
+    SylvaGridDesc g = sylva_dvr_grid(p);
     uint k = k_first;
     for (; samples < SYLVA_DVR_MAX_SAMPLES; k++) {
         float t = sylva_lattice_t(k, p.dt);
         if (!(t < t_end) || acc.alpha >= p.alpha_stop) break;
         samples = samples + 1u;
         vec3 x = sylva_dvr_at(origin, d, t);
-        float density = sylva_grid_sample(SYLVA_PASS_BUF(grid), sylva_dvr_grid(p), x);
+        float density = sylva_grid_sample(SYLVA_PASS_BUF(grid), g, x);
         if (density > 0.0f) {
-            sylva_dvr_march_sample(acc, SYLVA_PASS_BUF(grid), SYLVA_PASS_BUF(tf), p, x, density, d, units);
+            sylva_dvr_march_sample_in(acc, SYLVA_PASS_BUF(grid), SYLVA_PASS_BUF(tf), p, g, x, density, d, units);
         }
     }
     return k;

@@ -5,7 +5,11 @@
 //  * Typed literals (1.0f, 1u); no mixed-type calls; no pointers, templates, recursion, static,
 //    inline, typedef, sizeof, goto, unsigned, char, default arguments, overloaded operators,
 //    swizzles, implicit bool from integers, arrays as parameters.
-//  * Functions are declared `SYLVA_FN`; out-parameters `SYLVA_OUT(T)`, in-out `SYLVA_INOUT(T)`.
+//  * Functions are declared `SYLVA_FN`; out-parameters `SYLVA_OUT(T)`, in-out `SYLVA_INOUT(T)`,
+//    read-only structs `SYLVA_IN(T)` (a const reference in C++: an inlined by-value struct that
+//    is rebuilt a sample can cost the host a store-to-load stall each read; `in T` in GLSL).
+//    `SYLVA_FN_HOT` marks a small per-sample function the host compiler must inline (GCC left
+//    the octree's brick sampler a call; nothing in GLSL, where every call is inlined).
 //  * Buffers: a function that reads a buffer takes `SYLVA_BUF(name)` and reads with
 //    `SYLVA_LOAD(name, index)`. In C++ that is a bounds-safe view over 32-bit words; in GLSL the
 //    shader defines `uint sylva_load_<name>(uint i)` before including the shared header.
@@ -65,8 +69,10 @@ struct Words {
 #define SYLVA_BEGIN_NAMESPACE namespace sylva::shared {
 #define SYLVA_END_NAMESPACE }
 #define SYLVA_FN inline
+#define SYLVA_FN_HOT [[gnu::always_inline]] inline
 #define SYLVA_OUT(T) T&
 #define SYLVA_INOUT(T) T&
+#define SYLVA_IN(T) const T&
 #define SYLVA_BUF(name) const ::sylva::shared::Words& name
 #define SYLVA_LOAD(name, i) (name)[(i)]
 #define SYLVA_PASS_BUF(name) name
@@ -84,8 +90,10 @@ struct Words {
 #define SYLVA_BEGIN_NAMESPACE
 #define SYLVA_END_NAMESPACE
 #define SYLVA_FN
+#define SYLVA_FN_HOT
 #define SYLVA_OUT(T) out T
 #define SYLVA_INOUT(T) inout T
+#define SYLVA_IN(T) in T
 #define SYLVA_BUF(name) uint name
 #define SYLVA_LOAD(name, i) sylva_load_##name(i)
 #define SYLVA_PASS_BUF(name) 0u

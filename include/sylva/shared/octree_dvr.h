@@ -95,18 +95,18 @@ SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SylvaOctHeader h, ui
 
 /// Brick-local index of voxel i of the level along one axis whose brick starts at voxel `origin`,
 /// clamped into the brick's `side` samples (reads never leave the brick, whatever the point).
-SYLVA_FN uint sylva_oct_brick_local(uint i, int origin, uint side) {
+SYLVA_FN_HOT uint sylva_oct_brick_local(uint i, int origin, uint side) {
     return uint(clamp(int(i) - origin, 0, int(side) - 1));
 }
 
 /// Brick word of local sample (x, y, z), as a float.
-SYLVA_FN float sylva_oct_brick_at(SYLVA_BUF(bricks), SylvaOctBrick b, uint x, uint y, uint z) {
+SYLVA_FN_HOT float sylva_oct_brick_at(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, uint x, uint y, uint z) {
     return uintBitsToFloat(SYLVA_LOAD(bricks, b.base + x + b.side * (y + b.side * z)));
 }
 
 /// Trilinear density at world point p from the brick: sylva_grid_density's arithmetic
 /// (grid_sample.h) with the voxel reads taken from the brick.
-SYLVA_FN float sylva_oct_brick_density(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 p) {
+SYLVA_FN_HOT float sylva_oct_brick_density(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 p) {
     vec3 u = vec3(sylva_grid_index(p.x, b.spacing.x, b.dims.x), sylva_grid_index(p.y, b.spacing.y, b.dims.y),
                   sylva_grid_index(p.z, b.spacing.z, b.dims.z));
     uvec3 i0 = uvec3(uint(u.x), uint(u.y), uint(u.z));
@@ -129,7 +129,7 @@ SYLVA_FN float sylva_oct_brick_density(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 
 }
 
 /// Central-difference gradient at p from the brick: sylva_grid_gradient's arithmetic.
-SYLVA_FN vec3 sylva_oct_brick_gradient(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 p) {
+SYLVA_FN vec3 sylva_oct_brick_gradient(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 p) {
     vec3 s = b.spacing;
     SYLVA_PRECISE vec3 px0 = vec3(p.x - s.x, p.y, p.z);
     SYLVA_PRECISE vec3 px1 = vec3(p.x + s.x, p.y, p.z);
@@ -158,8 +158,8 @@ SYLVA_FN bool sylva_oct_tf_empty(SYLVA_BUF(tfsum), uint entries, float lo, float
 
 /// Samples the lattice points t_k in [t_lo, t_hi) from brick b: the marcher's per-sample work
 /// (dvr.h) with density and gradient from the brick. `steps` counts the samples.
-SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p,
-                                    SylvaOctBrick b, vec3 origin, vec3 d, float t_lo, float t_hi, float dt, float units,
+SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_IN(SylvaDvrParams) p,
+                                    SYLVA_IN(SylvaOctBrick) b, vec3 origin, vec3 d, float t_lo, float t_hi, float dt, float units,
                                     SYLVA_INOUT(uint) steps) {
     for (uint k = sylva_lattice_first(t_lo, dt); steps < SYLVA_DVR_MAX_SAMPLES; k++) {
         float t = sylva_lattice_t(k, dt);
@@ -201,7 +201,7 @@ SYLVA_FN uint sylva_oct_octant_mask(SYLVA_BUF(octmask), uint use_mask, uint node
 /// Samples leaf piece [t_lo, t_hi) octant by octant, skipping octants whose bit in `mask` is
 /// clear (see above); `it` is the walk, standing on the leaf.
 SYLVA_FN void sylva_oct_dvr_octants(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p,
-                                    SylvaOctBrick b, SylvaOctIter it, uint mask, vec3 origin, vec3 d, float t_lo,
+                                    SYLVA_IN(SylvaOctBrick) b, SylvaOctIter it, uint mask, vec3 origin, vec3 d, float t_lo,
                                     float t_hi, float dt, float units, SYLVA_INOUT(uint) steps) {
     if (mask == 255u) {
         sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, t_hi, dt, units, steps);

@@ -28,7 +28,7 @@ SYLVA_BEGIN_NAMESPACE
 
 /// Bisects [lo, hi] (density(lo) < iso <= density(hi) along origin + t d, from brick b)
 /// SYLVA_OCT_ISO_BISECT times; returns the upper end (a point reaching iso).
-SYLVA_FN float sylva_oct_iso_bisect(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 origin, vec3 d, float lo, float hi, float iso) {
+SYLVA_FN float sylva_oct_iso_bisect(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 origin, vec3 d, float lo, float hi, float iso) {
     for (uint i = 0u; i < SYLVA_OCT_ISO_BISECT; i++) {
         SYLVA_PRECISE float mid = 0.5f * (lo + hi);
         if (sylva_oct_brick_density(SYLVA_PASS_BUF(bricks), b, sylva_dvr_at(origin, d, mid)) >= iso) {
@@ -44,7 +44,7 @@ SYLVA_FN float sylva_oct_iso_bisect(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 ori
 /// >= iso; true with the refined hit in t_hit. `t_first` is the ray's span start: a hit on the
 /// first lattice point of the span (or one whose previous point also reaches iso in this brick)
 /// is not refined. `steps` counts samples.
-SYLVA_FN bool sylva_oct_iso_segment(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 origin, vec3 d, float t_lo, float t_hi,
+SYLVA_FN bool sylva_oct_iso_segment(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 origin, vec3 d, float t_lo, float t_hi,
                                     float dt, float iso, float t_first, SYLVA_INOUT(uint) steps, SYLVA_OUT(float) t_hit) {
     t_hit = 0.0f;
     for (uint k = sylva_lattice_first(t_lo, dt); steps < SYLVA_DVR_MAX_SAMPLES; k++) {
@@ -65,7 +65,7 @@ SYLVA_FN bool sylva_oct_iso_segment(SYLVA_BUF(bricks), SylvaOctBrick b, vec3 ori
 }
 
 /// The shaded, opaque colour of a hit at t from brick b.
-SYLVA_FN vec4 sylva_oct_iso_shade(SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SylvaOctBrick b, vec3 origin, vec3 d,
+SYLVA_FN vec4 sylva_oct_iso_shade(SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SYLVA_IN(SylvaOctBrick) b, vec3 origin, vec3 d,
                                   float t) {
     vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, p.iso);
     vec3 x = sylva_dvr_at(origin, d, t);
