@@ -83,7 +83,9 @@ void main() {
     // Lavapipe ends every loop of an invocation, silently, once 65,535 loop iterations have run
     // in all loops together. The DVR walk stops RUNNING only at early ray termination (alpha >=
     // alpha_stop; the host never returns RUNNING otherwise), so RUNNING below alpha_stop is a ray
-    // the limiter cut short: marked as an error, never written as a short colour.
-    bool cut_short = pc.mode == 0u && status == SYLVA_ITER_RUNNING && !(c.w >= p.alpha_stop);
+    // the limiter cut short: marked as an error, never written as a short colour. The iso walk
+    // never ends RUNNING on the host (DONE at a hit or at the end, ERROR on a bad index), so
+    // any RUNNING iso ray was cut short.
+    bool cut_short = status == SYLVA_ITER_RUNNING && (pc.mode == 1u || !(c.w >= p.alpha_stop));
     pixels[at + 4u] = (status == SYLVA_ITER_ERROR || cut_short) ? 0xFFFFFFFFu : steps;
 }

@@ -184,3 +184,38 @@ TEST_CASE("vulkan: a DVR ray past lavapipe's loop limiter is marked an error, ne
     CHECK(past_limit > 0);
     if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);
 }
+
+TEST_CASE("vulkan: an iso ray past lavapipe's loop limiter is marked an error, never drawn as a miss", "[parity][iso][errors]") {
+    // The iso walk never ends RUNNING on the host; a ray whose first hit lies more than 65,535
+    // lattice samples in (a lattice 400x finer than the default), or that misses after as many,
+    // is cut by lavapipe's limiter and must come back marked, not as a miss or a wrong hit.
+    vk::Context ctx = vk::Context::create();
+    volume::DensityGrid g = blobs({24, 24, 24}, 43);
+    octree::Tree t = octree::build(g, {8, 2});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    VolumeRenderParams p;
+    p.width = p.height = 12;
+    p.camera = Camera::framing(g.world_box(), {0.3f, 0.4f, 1.0f}, 35.0f).frame(p.width, p.height);
+    p.tf = std::vector<std::uint32_t>(256, 0xFF808080u);
+    p.dt = 24.0f / 1024.0f / 400.0f;
+    p.iso = 0.9f;
+    OctreeView view{words, t.bricks};
+    vk::DeviceOctree dev(ctx, view);
+    SerialExecutor serial;
+    Frame host = render_octree_iso_cpu(view, p, serial);
+    Frame device = vk::render_octree_iso_vulkan(ctx, dev, p);
+    std::size_t past_limit = 0, marked = 0;
+    for (std::size_t i = 0; i < host.steps.size(); ++i) {
+        if (host.steps[i] > 65535u) ++past_limit;
+        if (device.steps[i] == 0xFFFFFFFFu) {
+            ++marked;
+            continue;
+        }
+        INFO("pixel " << i);
+        CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
+        CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
+    }
+    INFO(past_limit << " rays need over 65,535 samples; " << marked << " marked on the device");
+    CHECK(past_limit > 0);
+    if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);
+}
