@@ -80,7 +80,7 @@ struct SylvaOctBrick {
 };
 
 /// The brick of node `node` (level, coordinates) of an octree with header h.
-SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SylvaOctHeader h, uint node, uint level, uvec3 coord) {
+SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SYLVA_IN(SylvaOctHeader) h, uint node, uint level, uvec3 coord) {
     SylvaOctBrick b;
     uint s = h.levels - 1u - level;
     uint w = 1u << s;
@@ -200,8 +200,8 @@ SYLVA_FN uint sylva_oct_octant_mask(SYLVA_BUF(octmask), uint use_mask, uint node
 
 /// Samples leaf piece [t_lo, t_hi) octant by octant, skipping octants whose bit in `mask` is
 /// clear (see above); `it` is the walk, standing on the leaf.
-SYLVA_FN void sylva_oct_dvr_octants(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p,
-                                    SYLVA_IN(SylvaOctBrick) b, SylvaOctIter it, uint mask, vec3 origin, vec3 d, float t_lo,
+SYLVA_FN void sylva_oct_dvr_octants(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_IN(SylvaDvrParams) p,
+                                    SYLVA_IN(SylvaOctBrick) b, SYLVA_IN(SylvaOctIter) it, uint mask, vec3 origin, vec3 d, float t_lo,
                                     float t_hi, float dt, float units, SYLVA_INOUT(uint) steps) {
     if (mask == 255u) {
         sylva_oct_dvr_segment(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, origin, d, t_lo, t_hi, dt, units, steps);
@@ -254,7 +254,7 @@ SYLVA_FN void sylva_oct_dvr_octants(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bric
 SYLVA_FN float sylva_oct_level_dt(float dt, uint s) { return dt * float(1u << s); }
 
 /// True when node's brick is sampled: resident, and not empty under the TF.
-SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SylvaDvrParams p, uint node) {
+SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SYLVA_IN(SylvaDvrParams) p, uint node) {
     uint state = sylva_oct_brick_state(sylva_oct_flags(SYLVA_PASS_BUF(words), node));
     vec2 range = sylva_oct_range(SYLVA_PASS_BUF(words), node);
     return state == SYLVA_OCT_BRICK_RESIDENT && !sylva_oct_tf_empty(SYLVA_PASS_BUF(tfsum), p.tf_entries, range.x, range.y);
@@ -264,7 +264,7 @@ SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SylvaDvr
 /// terminated (the `visits` leaves; visibility feedback, top of this header) and, with
 /// use_octmask 1, skips the octants of leaves that `octmask` marks empty (the same image).
 SYLVA_FN vec4 sylva_oct_dvr_ray_masked(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum),
-                                       SYLVA_BUF(octmask), uint use_octmask, SylvaDvrParams p, SylvaOctHeader h,
+                                       SYLVA_BUF(octmask), uint use_octmask, SYLVA_IN(SylvaDvrParams) p, SYLVA_IN(SylvaOctHeader) h,
                                        uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
                                        SYLVA_SEEN(seen), SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits,
                                        SYLVA_OUT(uint) status) {
@@ -312,8 +312,8 @@ SYLVA_FN vec4 sylva_oct_dvr_ray_masked(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLV
 }
 
 /// sylva_oct_dvr_ray_masked without octant masks.
-SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
-                                     SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SYLVA_IN(SylvaDvrParams) p,
+                                     SYLVA_IN(SylvaOctHeader) h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
                                      SYLVA_SEEN(seen), SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
     return sylva_oct_dvr_ray_masked(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), SYLVA_PASS_BUF(tfsum),
                                     SYLVA_OCT_NO_OCTMASK, 0u, p, h, max_level, origin, direction, t_min, t_max, seen, steps,
@@ -324,8 +324,8 @@ SYLVA_FN vec4 sylva_oct_dvr_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_
 /// octree with header h (sylva_oct_read_header, once a frame), the cut's leaves at max_level.
 /// Returns premultiplied RGB and opacity; `steps` = lattice samples taken, `visits` = leaves
 /// visited, `status` = the walk's final status (SYLVA_ITER_ERROR: corrupted index).
-SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SylvaDvrParams p,
-                                SylvaOctHeader h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
+SYLVA_FN vec4 sylva_oct_dvr_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_BUF(tfsum), SYLVA_IN(SylvaDvrParams) p,
+                                SYLVA_IN(SylvaOctHeader) h, uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
                                 SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
     return sylva_oct_dvr_ray_seen(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), SYLVA_PASS_BUF(tfsum), p,
                                   h, max_level, origin, direction, t_min, t_max, SYLVA_OCT_NO_SEEN, steps, visits, status);

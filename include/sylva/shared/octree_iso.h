@@ -65,7 +65,7 @@ SYLVA_FN bool sylva_oct_iso_segment(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b
 }
 
 /// The shaded, opaque colour of a hit at t from brick b.
-SYLVA_FN vec4 sylva_oct_iso_shade(SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SYLVA_IN(SylvaOctBrick) b, vec3 origin, vec3 d,
+SYLVA_FN vec4 sylva_oct_iso_shade(SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_IN(SylvaDvrParams) p, SYLVA_IN(SylvaOctBrick) b, vec3 origin, vec3 d,
                                   float t) {
     vec4 c = sylva_dvr_classify(SYLVA_PASS_BUF(tf), p, p.iso);
     vec3 x = sylva_dvr_at(origin, d, t);
@@ -84,7 +84,7 @@ SYLVA_FN bool sylva_oct_iso_visible(SYLVA_BUF(words), float iso, uint node) {
 
 /// sylva_oct_iso_ray that also marks in `seen` every cut leaf the ray reached up to its hit (the
 /// `visits` leaves; visibility feedback, sylva/shared/octree_dvr.h).
-SYLVA_FN vec4 sylva_oct_iso_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SylvaOctHeader h,
+SYLVA_FN vec4 sylva_oct_iso_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_IN(SylvaDvrParams) p, SYLVA_IN(SylvaOctHeader) h,
                                      uint max_level, vec3 origin, vec3 direction, float t_min, float t_max, SYLVA_SEEN(seen),
                                      SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
     steps = 0u;
@@ -134,7 +134,7 @@ SYLVA_FN vec4 sylva_oct_iso_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_
 /// of the iso value p.iso through the octree with header h, the cut's leaves at max_level (or
 /// marked in the index). Returns the opaque shaded colour, or 0 when the ray misses; `steps` =
 /// lattice samples, `visits` = leaves visited, `status` = the walk's final status.
-SYLVA_FN vec4 sylva_oct_iso_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SylvaDvrParams p, SylvaOctHeader h,
+SYLVA_FN vec4 sylva_oct_iso_ray(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_IN(SylvaDvrParams) p, SYLVA_IN(SylvaOctHeader) h,
                                 uint max_level, vec3 origin, vec3 direction, float t_min, float t_max,
                                 SYLVA_OUT(uint) steps, SYLVA_OUT(uint) visits, SYLVA_OUT(uint) status) {
     return sylva_oct_iso_ray_seen(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, h, max_level, origin,

@@ -70,7 +70,7 @@ struct SylvaOctIter {
 /// Starts a traversal of origin + t * direction over [t_min, t_max] (world space), with the
 /// cut's leaves at level max_level (or the octree's leaves above it), with the header
 /// sylva_oct_read_header gave (read and checked once a frame, not once a ray).
-SYLVA_FN void sylva_oct_begin(SYLVA_OUT(SylvaOctIter) it, SylvaOctHeader hdr, vec3 origin, vec3 direction, float t_min,
+SYLVA_FN void sylva_oct_begin(SYLVA_OUT(SylvaOctIter) it, SYLVA_IN(SylvaOctHeader) hdr, vec3 origin, vec3 direction, float t_min,
                               float t_max, uint max_level) {
     it.hdr = hdr;
     it.max_level = max_level;
@@ -131,7 +131,7 @@ SYLVA_FN void sylva_oct_clip(SYLVA_INOUT(SylvaOctIter) it, float t) { it.t_end =
 /// The first exit plane of the current node's box: returns its ray parameter and sets `face`
 /// (0 -x, 1 +x, 2 -y, 3 +y, 4 -z, 5 +z; the first axis among equal exits); +inf and face 6 when
 /// the ray is parallel to every axis.
-SYLVA_FN float sylva_oct_exit(SylvaOctIter it, SYLVA_OUT(uint) face) {
+SYLVA_FN float sylva_oct_exit(SYLVA_IN(SylvaOctIter) it, SYLVA_OUT(uint) face) {
     vec3 lo;
     vec3 hi;
     sylva_oct_box(it.hdr, it.level, it.coord, lo, hi);
@@ -189,7 +189,7 @@ SYLVA_FN void sylva_oct_cross(SYLVA_INOUT(SylvaOctIter) it, SYLVA_BUF(words), ui
 /// Upper (1) or lower (0) half along axis k of the current node for the ray at t_cur: the mid
 /// plane's ray parameter against t_cur (the step function of Fig. 5), the origin against the
 /// plane on an axis the ray is parallel to; lower when the upper half starts beyond the volume.
-SYLVA_FN uint sylva_oct_half(SylvaOctIter it, uint k, uint child_width) {
+SYLVA_FN uint sylva_oct_half(SYLVA_IN(SylvaOctIter) it, uint k, uint child_width) {
     uint mid = (2u * sylva_kd_pick_u(it.coord, k) + 1u) * child_width;
     if (mid >= sylva_kd_pick_u(it.hdr.dims, k)) return 0u;
     float o = sylva_kd_pick(it.org, k);

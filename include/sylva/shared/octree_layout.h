@@ -197,10 +197,10 @@ SYLVA_FN uint sylva_oct_child(uint first, uint mask, uint octant) {
 }
 
 /// Width in voxels of a node of level l: B * 2^(L - 1 - l) (l < L).
-SYLVA_FN uint sylva_oct_width(SylvaOctHeader h, uint level) { return h.brick_size << (h.levels - 1u - level); }
+SYLVA_FN uint sylva_oct_width(SYLVA_IN(SylvaOctHeader) h, uint level) { return h.brick_size << (h.levels - 1u - level); }
 
 /// Voxel-space box [lo, hi] of the node of level l with coordinates c, clipped to the volume.
-SYLVA_FN void sylva_oct_box(SylvaOctHeader h, uint level, uvec3 c, SYLVA_OUT(vec3) lo, SYLVA_OUT(vec3) hi) {
+SYLVA_FN void sylva_oct_box(SYLVA_IN(SylvaOctHeader) h, uint level, uvec3 c, SYLVA_OUT(vec3) lo, SYLVA_OUT(vec3) hi) {
     uint w = sylva_oct_width(h, level);
     lo = vec3(float(c.x * w), float(c.y * w), float(c.z * w));
     hi = vec3(float(min(c.x * w + w, h.dims.x)), float(min(c.y * w + w, h.dims.y)), float(min(c.z * w + w, h.dims.z)));
