@@ -151,6 +151,25 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
     CHECK_THROWS_AS(dev.set_index(other), Error);
 }
 
+/// Lavapipe's loop limiter: some of the host's rays need over 65,535 samples; on llvmpipe
+/// some device pixels are marked (steps 0xFFFFFFFF), and every unmarked pixel is the whole ray.
+void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame& device) {
+    std::size_t past_limit = 0, marked = 0;
+    for (std::size_t i = 0; i < host.steps.size(); ++i) {
+        if (host.steps[i] > 65535u) ++past_limit;
+        if (device.steps[i] == 0xFFFFFFFFu) {
+            ++marked;
+            continue;
+        }
+        INFO("pixel " << i);
+        CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
+        CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
+    }
+    INFO(past_limit << " rays need over 65,535 samples; " << marked << " marked on the device");
+    CHECK(past_limit > 0);
+    if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);
+}
+
 TEST_CASE("vulkan: a DVR ray past lavapipe's loop limiter is marked an error, never drawn short", "[parity][dvr][errors]") {
     // A lattice 400x finer than the default: about 120,000 samples a ray through the middle, past
     // the 65,535 loop iterations lavapipe allows an invocation (a real GPU has no such limit).
@@ -169,20 +188,7 @@ TEST_CASE("vulkan: a DVR ray past lavapipe's loop limiter is marked an error, ne
     SerialExecutor serial;
     Frame host = render_octree_dvr_cpu(view, p, serial);
     Frame device = vk::render_octree_dvr_vulkan(ctx, dev, p);
-    std::size_t past_limit = 0, marked = 0;
-    for (std::size_t i = 0; i < host.steps.size(); ++i) {
-        if (host.steps[i] > 65535u) ++past_limit;
-        if (device.steps[i] == 0xFFFFFFFFu) {
-            ++marked;
-            continue;
-        }
-        INFO("pixel " << i);
-        CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
-        CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
-    }
-    INFO(past_limit << " rays need over 65,535 samples; " << marked << " marked on the device");
-    CHECK(past_limit > 0);
-    if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);
+    check_limiter_marks(ctx, host, device);
 }
 
 TEST_CASE("vulkan: an iso ray past lavapipe's loop limiter is marked an error, never drawn as a miss", "[parity][iso][errors]") {
@@ -204,18 +210,5 @@ TEST_CASE("vulkan: an iso ray past lavapipe's loop limiter is marked an error, n
     SerialExecutor serial;
     Frame host = render_octree_iso_cpu(view, p, serial);
     Frame device = vk::render_octree_iso_vulkan(ctx, dev, p);
-    std::size_t past_limit = 0, marked = 0;
-    for (std::size_t i = 0; i < host.steps.size(); ++i) {
-        if (host.steps[i] > 65535u) ++past_limit;
-        if (device.steps[i] == 0xFFFFFFFFu) {
-            ++marked;
-            continue;
-        }
-        INFO("pixel " << i);
-        CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
-        CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
-    }
-    INFO(past_limit << " rays need over 65,535 samples; " << marked << " marked on the device");
-    CHECK(past_limit > 0);
-    if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);
+    check_limiter_marks(ctx, host, device);
 }
