@@ -7,22 +7,14 @@
 //     case take turns frame by frame (round robin), so a change of load on a shared machine
 //     falls on all of them alike and their ratios hold;
 //   * 2x2 ray packets through the default tree (Wald 4.3; Table I's "SIMD" steps);
-//   * a middle variant, implicit-kd-b3 (bricks of 3 unstored levels, ~2^3 cells), for the
-//     memory / speed trade-off of ikd::Config::brick_levels;
+//   * a compact variant, implicit-kd-b6 (bricks of 6 unstored levels, ~4^3 cells, a quarter of
+//     the default's index), for the memory / speed trade-off of ikd::Config::brick_levels;
 //   * cold and steady state: build_ms is the first build of the tree in the process (its
 //     allocations touch fresh pages), build_ms_again a second build of the same tree (the
 //     allocator's pages are warm); first_frame_ms is the first frame of an impl (frame buffers
 //     and the index touched for the first time), frame_ms the median of the --runs frames after.
 //     A machine started minutes ago pays more for first touches than a process can show (its
 //     hypervisor maps pages on first use), so the cold figures here are a lower bound;
-//   * a middle variant, implicit-kd-b3 (bricks of 3 unstored levels, ~2^3 cells), for the
-//     memory / speed trade-off of ikd::Config::brick_levels;
-//   * cold and steady state: build_ms is the first build of the case in the process (its
-//     allocations touch fresh pages), build_ms_again a second build of the same tree (the
-//     allocator's pages are warm); first_frame_ms is the first frame of an impl (frame buffers
-//     and the index touched for the first time), frame_ms the median of the --runs frames after.
-//     A machine started minutes ago pays more for first touches than this process can show
-//     (its hypervisor maps pages on first use), so cold figures here are a lower bound;
 //   * the images of the tree, its packets and the DDA must be identical (checked every case).
 // Peers on the same camera, rays, size and isovalue, on the same thread pool (rows as
 // render_iso_cpu splits them):
@@ -497,9 +489,9 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     p.width = p.height = o.size;
     p.camera = Camera::framing(g->world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(o.size, o.size);
     p.isos = {{o.iso, vec4(0.93f, 0.86f, 0.75f, 1.0f)}};
-    // The three trees (default bricks, 3 brick levels, slim), each built twice: cold, then again.
-    const std::uint32_t bricks[3] = {ikd::Config{}.brick_levels, 3u, 0u};
-    const char* names[3] = {"implicit-kd", "implicit-kd-b3", "implicit-kd-slim"};
+    // The three trees (default bricks, 6 brick levels, slim), each built twice: cold, then again.
+    const std::uint32_t bricks[3] = {ikd::Config{}.brick_levels, 6u, 0u};
+    const char* names[3] = {"implicit-kd", "implicit-kd-b6", "implicit-kd-slim"};
     std::vector<std::uint32_t> words[3];
     for (int t = 0; t < 3; ++t) {
         ikd::Tree tree = ikd::build(*g, pool, ikd::Config{bricks[t]});
@@ -517,7 +509,7 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     cs.push_back(iso_contender(names[0], words[0], gw, p, IsoWalker::Tree, pool));
     cs.push_back(iso_contender("implicit-kd-packet", words[0], gw, p, IsoWalker::Tree, pool, true));
     cs.push_back(iso_contender(names[1], words[1], gw, p, IsoWalker::Tree, pool));
-    cs.push_back(iso_contender("implicit-kd-b3-packet", words[1], gw, p, IsoWalker::Tree, pool, true));
+    cs.push_back(iso_contender("implicit-kd-b6-packet", words[1], gw, p, IsoWalker::Tree, pool, true));
     cs.push_back(iso_contender(names[2], words[2], gw, p, IsoWalker::Tree, pool));
     cs.push_back(iso_contender("dda", words[2], gw, p, IsoWalker::Dda, pool));
     const std::size_t trees = cs.size();

@@ -62,12 +62,13 @@ struct Config {
     /// 5.2; here one word, two unorm16, per node: about one word per cell). Each level more
     /// halves the node words; below the stored levels nothing is culled and a brick's cells are
     /// tested one by one (section 5.2 proposes such bricks and 4-bit ranges without measuring
-    /// them). 3 levels are bricks of 2x2x2 cells, 1/8 of a word per cell; 6 (the default)
-    /// bricks of 4x4x4, 1/64 of a word per cell: on the 8-bit aneurism and bonsai at 512^2
-    /// (iso 0.3) 1.0 MB against 8.4 MB with 3 levels and the slim tree's 66.8 MB (the data:
-    /// 16.8 MB), for 1.3x the slim tree's traversal steps and 0.85-0.92x its rays/s; 3 levels
-    /// are 1.1-1.17x faster than the default (sylva-iso-bench; sylva-render --ikd-bricks).
-    std::uint32_t brick_levels = 6;
+    /// them). 3 levels are bricks of 2x2x2 cells, 1/8 of a word per cell; 4 (the default)
+    /// bricks of 4x2x2, 1/16 of a word per cell (a quarter of 8-bit data, 1/8 of 16-bit); 6
+    /// bricks of 4x4x4, 1/64 of a word per cell. On the 8-bit aneurism and bonsai at 512^2
+    /// (iso 0.3) the default is 4.2 MB against 1.05 MB with 6 levels and the slim tree's
+    /// 66.8 MB (the data: 16.8 MB), and its packets are about 1.2x faster than with 6 levels
+    /// (README, Wald section: sylva-iso-bench; sylva-render --ikd-bricks).
+    std::uint32_t brick_levels = 4;
     /// Raw value range the grid was normalised with (recorded in the header; sylva-render passes
     /// the volume's). Default: densities as they are.
     float range_lo = 0.0f;

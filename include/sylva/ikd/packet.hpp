@@ -68,6 +68,19 @@ struct PacketCell {
     vec4 corners_lo{0.0f}, corners_hi{0.0f};
 };
 
+/// The isovalues as node-word code bounds (shared::sylva_ikd_iso_codes): a renderer computes
+/// them once a frame and hands them to every packet.
+struct IsoCodes {
+    glm::u32vec4 at_most{0u}, below{0u};
+};
+
+/// The code bounds of the first `iso_count` (at most 4) of `isos`.
+inline IsoCodes iso_codes(vec4 isos, std::uint32_t iso_count) {
+    IsoCodes c;
+    shared::sylva_ikd_iso_codes(isos, std::min(iso_count, 4u), c.at_most, c.below);
+    return c;
+}
+
 namespace detail {
 
 /// Four lanes of floats and the few operations the packet traversal needs, written once over
@@ -145,16 +158,22 @@ public:
                      shared::sylva_ikd_read_header(shared::Words{words.data(), words.size()},
                                                    static_cast<std::uint32_t>(words.size()),
                                                    static_cast<std::uint32_t>(grid.size())),
-                     p, isos, iso_count) {}
+                     p, isos, iso_count, iso_codes(isos, iso_count)) {}
 
     /// The same with the header sylva_ikd_read_header gave for these buffers (read once per
     /// frame by a renderer).
     PacketIter(std::span<const std::uint32_t> words, std::span<const std::uint32_t> grid,
                const shared::SylvaIkdHeader& hdr, const RayPacket& p, vec4 isos, std::uint32_t iso_count)
+        : PacketIter(words, grid, hdr, p, isos, iso_count, iso_codes(isos, iso_count)) {}
+
+    /// ... and the isovalues' code bounds iso_codes(isos, iso_count), also computed once per
+    /// frame by a renderer.
+    PacketIter(std::span<const std::uint32_t> words, std::span<const std::uint32_t> grid,
+               const shared::SylvaIkdHeader& hdr, const RayPacket& p, vec4 isos, std::uint32_t iso_count,
+               const IsoCodes& codes)
         : words_{words.data(), words.size()}, grid_{grid.data(), grid.size()}, hdr_(hdr), isos_(isos),
-          iso_count_(iso_count) {
+          iso_count_(iso_count), at_most_(codes.at_most), below_(codes.below) {
         if (!same_signs(p)) throw Error("ikd::PacketIter: the rays' direction signs differ");
-        shared::sylva_ikd_iso_codes(isos, std::min(iso_count, 4u), at_most_, below_);
         if (hdr_.valid == 0u) {
             status_ = SYLVA_ITER_ERROR;
             return;
@@ -217,6 +236,8 @@ public:
         return false;
     }
 
+    /// Lane k's ray origin in cell space (what the iterator maps it to; shading needs it too).
+    [[nodiscard]] vec3 lane_origin(int k) const { return {lanes_.o[0][k], lanes_.o[1][k], lanes_.o[2][k]}; }
     [[nodiscard]] std::uint32_t steps() const { return steps_; }
     /// The tree's header (for mapping the lanes' rays into cell space as the iterator does).
     [[nodiscard]] const shared::SylvaIkdHeader& header() const { return hdr_; }

@@ -184,7 +184,8 @@ namespace detail {
 /// stay inactive. Falls back to single rays when the directions' signs differ. Adds the packet's
 /// traversal steps (or the single rays') to n.
 inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp,
-                     const shared::SylvaIkdHeader& hdr, const IsoRenderParams& rp, std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
+                     const shared::SylvaIkdHeader& hdr, const ikd::IsoCodes& codes, const IsoRenderParams& rp,
+                     std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
     ikd::RayPacket pk;
     std::array<std::size_t, ikd::kPacketLanes> at{};
     for (int k = 0; k < ikd::kPacketLanes; ++k) {
@@ -209,14 +210,12 @@ inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoP
         }
         return;
     }
-    ikd::PacketIter it({tw.data, tw.size}, {gw.data, gw.size}, hdr, pk, sp.isos, sp.iso_count);
+    ikd::PacketIter it({tw.data, tw.size}, {gw.data, gw.size}, hdr, pk, sp.isos, sp.iso_count, codes);
     std::array<vec4, ikd::kPacketLanes> rgba{};
-    std::array<vec3, ikd::kPacketLanes> org{}, rcp{}, d{};
-    std::array<glm::u32vec3, ikd::kPacketLanes> par{};
+    std::array<vec3, ikd::kPacketLanes> org{}, d{};
     std::array<std::uint32_t, ikd::kPacketLanes> hits{};
-    for (int k = 0; k < ikd::kPacketLanes; ++k) {
-        shared::sylva_ray_to_grid(pk.origin[k], pk.direction[k], hdr.origin, hdr.inv_spacing, 0.0f, 1.0f, org[k], rcp[k],
-                                  par[k]);
+    for (int k = 0; k < ikd::kPacketLanes; ++k) {  // the cell-space ray (sylva_ray_to_grid's, as the single path)
+        org[k] = it.lane_origin(k);
         d[k] = pk.direction[k] * hdr.inv_spacing;
     }
     ikd::PacketCell c;
@@ -256,6 +255,7 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
     shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words);  // once a frame
+    ikd::IsoCodes codes = ikd::iso_codes(sp.isos, sp.iso_count);                                   // once a frame
     Frame f = detail::iso_frame(p);
     detail::IsoTotals totals;
     auto start = std::chrono::steady_clock::now();
@@ -263,7 +263,7 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
         IsoCounters n;
         for (std::size_t r = r0; r < r1; ++r)
             for (std::uint32_t x = 0; x < p.width; x += 2)
-                detail::iso_tile(tw, gw, sp, hdr, p, x, static_cast<std::uint32_t>(2 * r), f, n);
+                detail::iso_tile(tw, gw, sp, hdr, codes, p, x, static_cast<std::uint32_t>(2 * r), f, n);
         totals.add(n);
     });
     f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
