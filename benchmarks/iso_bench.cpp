@@ -7,8 +7,9 @@
 //     case take turns frame by frame (round robin), so a change of load on a shared machine
 //     falls on all of them alike and their ratios hold;
 //   * 2x2 ray packets through the default tree (Wald 4.3; Table I's "SIMD" steps);
-//   * a compact variant, implicit-kd-b6 (bricks of 6 unstored levels, ~4^3 cells, a quarter of
-//     the default's index), for the memory / speed trade-off of ikd::Config::brick_levels;
+//   * a second tree, by default implicit-kd-b6 (bricks of 6 unstored levels, ~4^3 cells, a
+//     quarter of the default's index; --alt-bricks N --alt-bits 8|16 pick another, named
+//     implicit-kd-bN[-u16]), for the memory / speed trade-offs of ikd::Config;
 //   * cold and steady state: build_ms is the first build of the tree in the process (its
 //     allocations touch fresh pages), build_ms_again a second build of the same tree (the
 //     allocator's pages are warm); first_frame_ms is the first frame of an impl (frame buffers
@@ -38,7 +39,7 @@
 // Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3
 // (float32 grids, densities in [0, 1]). JSON records {"case", "impl", "metric", "value", "unit"}.
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512,ml1024] [--size N] [--runs R]
-//                   [--iso V] [--json FILE] [--threads T] [--no-peers]
+//                   [--iso V] [--json FILE] [--threads T] [--no-peers] [--alt-bricks N] [--alt-bits 8|16]
 // --no-peers leaves out nanovdb-hdda and bih-iso (whose builds dominate the run at ML 512^3).
 // ml1024 needs more than 24 GB even with --no-peers (the float32 grid, its GridWords copy, the
 // slim tree's 4 GB of nodes and the build's level temporaries): on the project's 24 GB machines
@@ -88,6 +89,8 @@ struct Options {
     std::string json;
     std::uint32_t threads = 0;
     bool peers = true;
+    std::uint32_t alt_bricks = 6;  ///< the second tree: brick levels ...
+    std::uint32_t alt_bits = 8;    ///< ... and node bits
 };
 
 struct Record {
@@ -129,6 +132,14 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
     app->add_option("--threads", o.threads, "worker threads (default: hardware concurrency)")
         ->type_name("T")
         ->check(CLI::Range(1u, 1024u));
+    app->add_option("--alt-bricks", o.alt_bricks, "brick levels of the second tree (implicit-kd-bN[-u16])")
+        ->type_name("N")
+        ->capture_default_str()
+        ->check(CLI::Range(0u, 12u));
+    app->add_option("--alt-bits", o.alt_bits, "node bits of the second tree")
+        ->type_name("8|16")
+        ->capture_default_str()
+        ->check(CLI::IsMember({8u, 16u}));
     app->add_flag_callback("--no-peers", [&o] { o.peers = false; },
                            "leave out nanovdb-hdda and bih-iso (their builds dominate the run at ML 512^3)");
     return app;
@@ -489,15 +500,17 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     p.width = p.height = o.size;
     p.camera = Camera::framing(g->world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(o.size, o.size);
     p.isos = {{o.iso, vec4(0.93f, 0.86f, 0.75f, 1.0f)}};
-    // The three trees (default bricks, 6 brick levels, slim), each built twice: cold, then again.
-    const std::uint32_t bricks[3] = {ikd::Config{}.brick_levels, 6u, 0u};
-    const char* names[3] = {"implicit-kd", "implicit-kd-b6", "implicit-kd-slim"};
+    // The three trees (the default; the second tree, by default 6 brick levels; the paper's slim
+    // tree, 16-bit nodes and no bricks), each built twice: cold, then again.
+    const ikd::Config configs[3] = {ikd::Config{}, ikd::Config{o.alt_bricks, o.alt_bits}, ikd::Config{0u, 16u}};
+    const std::string alt = "implicit-kd-b" + std::to_string(o.alt_bricks) + (o.alt_bits == 16 ? "-u16" : "");
+    const std::string names[3] = {"implicit-kd", alt, "implicit-kd-slim"};
     std::vector<std::uint32_t> words[3];
     for (int t = 0; t < 3; ++t) {
-        ikd::Tree tree = ikd::build(*g, pool, ikd::Config{bricks[t]});
+        ikd::Tree tree = ikd::build(*g, pool, configs[t]);
         words[t] = ikd::encode(tree);
         out.push_back({c, names[t], "build_ms", tree.build_ms, "ms"});
-        out.push_back({c, names[t], "build_ms_again", ikd::build(*g, pool, ikd::Config{bricks[t]}).build_ms, "ms"});
+        out.push_back({c, names[t], "build_ms_again", ikd::build(*g, pool, configs[t]).build_ms, "ms"});
         out.push_back({c, names[t], "index_bytes", double(words[t].size() * 4), "bytes"});
         out.push_back({c, names[t], "index_per_data", double(words[t].size() * 4) / double(data_bytes), "x"});
     }
@@ -509,7 +522,7 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     cs.push_back(iso_contender(names[0], words[0], gw, p, IsoWalker::Tree, pool));
     cs.push_back(iso_contender("implicit-kd-packet", words[0], gw, p, IsoWalker::Tree, pool, true));
     cs.push_back(iso_contender(names[1], words[1], gw, p, IsoWalker::Tree, pool));
-    cs.push_back(iso_contender("implicit-kd-b6-packet", words[1], gw, p, IsoWalker::Tree, pool, true));
+    cs.push_back(iso_contender(alt + "-packet", words[1], gw, p, IsoWalker::Tree, pool, true));
     cs.push_back(iso_contender(names[2], words[2], gw, p, IsoWalker::Tree, pool));
     cs.push_back(iso_contender("dda", words[2], gw, p, IsoWalker::Dda, pool));
     const std::size_t trees = cs.size();

@@ -45,6 +45,7 @@ inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g,
     using namespace sylva;
     ikd::Config cfg;
     cfg.brick_levels = o.ikd_bricks;
+    cfg.node_bits = o.ikd_node_bits;
     cfg.range_lo = s.volume.range_lo;
     cfg.range_hi = s.volume.range_hi;
     ikd::Tree tree = ikd::build(g, pool, cfg);

@@ -362,6 +362,10 @@ void add_volume_indices(CLI::App& app, Options& o) {
     Group i{app, "isosurfaces (volumes: --index implicit-kd|dda)"};
     i.number("--ikd-bricks", o.ikd_bricks, 0, 12, "N",
              "bottom levels of the implicit kd-tree not stored (0: slim tree)");
+    i.converted("--ikd-node-bits", o.ikd_node_bits, [](const std::string& v) -> std::uint32_t {
+        if (v != "8" && v != "16") throw std::invalid_argument("'" + v + "' is not one of 8|16");
+        return v == "8" ? 8u : 16u;
+    }, "8|16", "bits of a node's min and max in the implicit kd-tree", label(o.ikd_node_bits));
 
     Group t{app, "octree (volumes: --index octree)"};
     t.converted("--brick", o.brick, [](const std::string& v) -> std::uint32_t {

@@ -68,9 +68,10 @@ struct Encoded {
     ikd::Tree tree;
     std::vector<std::uint32_t> words;
     GridWords gw;
-    explicit Encoded(volume::DensityGrid g, std::uint32_t brick_levels = ikd::Config{}.brick_levels)
+    explicit Encoded(volume::DensityGrid g, std::uint32_t brick_levels = ikd::Config{}.brick_levels,
+                     std::uint32_t node_bits = ikd::Config{}.node_bits)
         : grid(std::move(g)),
-          tree(ikd::build(grid, ikd::Config{brick_levels})),
+          tree(ikd::build(grid, ikd::Config{brick_levels, node_bits})),
           words(ikd::encode(tree)),
           gw(GridWords::from(grid)) {}
 };
@@ -184,20 +185,36 @@ TEST_CASE("ikd node ranges equal brute force over the cells below, rounded outwa
         volume::DensityGrid g = blobs(d, d.x * 131 + d.y * 7 + d.z);
         SerialExecutor serial;
         ThreadPool pool(2);
-        ikd::Tree t = ikd::build(g, serial, ikd::Config{0}), tp = ikd::build(g, pool, ikd::Config{0});
-        CHECK(tp.ranges == t.ranges);  // parallel == serial
-        for (const ikd::Level& l : t.levels)
-            for (std::uint32_t k = 0; k < l.nodes.z; ++k)
-                for (std::uint32_t j = 0; j < l.nodes.y; ++j)
-                    for (std::uint32_t i = 0; i < l.nodes.x; ++i) {
-                        glm::u32vec3 o(i << l.log2_width.x, j << l.log2_width.y, k << l.log2_width.z);
-                        auto [lo, hi] = brute_range(g, o, l.log2_width);
-                        std::uint32_t w = t.ranges[l.first + i + l.nodes.x * (j + l.nodes.y * k)];
-                        CHECK((w & 0xFFFFu) == std::uint32_t(std::floor(double(lo) * 65535.0)));
-                        CHECK((w >> 16) == std::uint32_t(std::ceil(double(hi) * 65535.0)));
-                        CHECK(shared::sylva_ikd_node_range(w).x <= lo);  // conservative as float too
-                        CHECK(shared::sylva_ikd_node_range(w).y >= hi);
-                    }
+        for (std::uint32_t bits : {16u, 8u}) {
+            CAPTURE(bits);
+            ikd::Tree t = ikd::build(g, serial, ikd::Config{0, bits}), tp = ikd::build(g, pool, ikd::Config{0, bits});
+            CHECK(tp.ranges == t.ranges);  // parallel == serial
+            // What the encoding holds, read back as the iterators read it (8-bit: half words).
+            std::vector<std::uint32_t> words = ikd::encode(t);
+            GridWords gw = GridWords::from(g);
+            ikd::validate(words, gw.words.size());
+            shared::Words w_buf{words.data(), words.size()};
+            shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(w_buf, static_cast<std::uint32_t>(words.size()),
+                                                                        static_cast<std::uint32_t>(gw.words.size()));
+            REQUIRE(hdr.valid == 1u);
+            CHECK(hdr.format == (bits == 8 ? SYLVA_IKD_FORMAT_UNORM8 : SYLVA_IKD_FORMAT_UNORM16));
+            CHECK(words.size() * 4 == t.bytes());
+            const double top = bits == 8 ? 255.0 : 65535.0, widen = bits == 8 ? 257.0 : 1.0;
+            for (const ikd::Level& l : t.levels)
+                for (std::uint32_t k = 0; k < l.nodes.z; ++k)
+                    for (std::uint32_t j = 0; j < l.nodes.y; ++j)
+                        for (std::uint32_t i = 0; i < l.nodes.x; ++i) {
+                            glm::u32vec3 o(i << l.log2_width.x, j << l.log2_width.y, k << l.log2_width.z);
+                            auto [lo, hi] = brute_range(g, o, l.log2_width);
+                            std::uint32_t index = l.first + i + l.nodes.x * (j + l.nodes.y * k);
+                            std::uint32_t w = t.ranges[index];
+                            CHECK(shared::sylva_ikd_node_word(w_buf, hdr, index) == w);
+                            CHECK((w & 0xFFFFu) == std::uint32_t(std::floor(double(lo) * top) * widen));
+                            CHECK((w >> 16) == std::uint32_t(std::ceil(double(hi) * top) * widen));
+                            CHECK(shared::sylva_ikd_node_range(w).x <= lo);  // conservative as float too
+                            CHECK(shared::sylva_ikd_node_range(w).y >= hi);
+                        }
+        }
     }
 }
 
@@ -237,8 +254,10 @@ TEST_CASE("ikd iterator: the candidate cells of brute force, front to back, same
     std::uniform_real_distribution<float> iso(0.15f, 0.75f);
     std::size_t rays_with_cells = 0;
     for (volume::Dims d : {volume::Dims(2, 2, 2), volume::Dims(3, 5, 4), volume::Dims(17, 9, 33), volume::Dims(20, 20, 12)})
-    for (std::uint32_t bricks : {0u, 3u, 6u}) {  // the slim tree, and bricks of 2^3 and 4^3 cells
-        Encoded e(blobs(d, d.x + 1000 * d.z, vec3(1.0f, 0.75f, 1.5f)), bricks);
+    for (auto [bricks, bits] : {std::pair{0u, 16u}, {0u, 8u}, {3u, 8u}, {4u, 16u}, {6u, 8u}}) {
+        // the slim tree, and bricks of 2^3, 2^4 and 4^3 cells; 16- and 8-bit node ranges
+        CAPTURE(bricks, bits);
+        Encoded e(blobs(d, d.x + 1000 * d.z, vec3(1.0f, 0.75f, 1.5f)), bricks, bits);
         REQUIRE_NOTHROW(ikd::validate(e.words, e.gw.words.size()));
         vec3 box = vec3(d) * e.grid.spacing;
         for (int r = 0; r < 3000; ++r) {
@@ -257,7 +276,7 @@ TEST_CASE("ikd iterator: the candidate cells of brute force, front to back, same
             rays_with_cells += want.empty() ? 0 : 1;
         }
     }
-    CHECK(rays_with_cells > 9000);  // of 36000: the test sees real work
+    CHECK(rays_with_cells > 15000);  // of 60000: the test sees real work
 }
 
 TEST_CASE("ikd iterator: culling visits fewer nodes than cells crossed, and an isovalue outside the data none", "[ikd]") {
@@ -303,7 +322,8 @@ TEST_CASE("ikd bad input: too small, NaN or out-of-range densities, corrupted en
     CHECK_THROWS_WITH(ikd::validate(mutated(2, 9), gn), Contains("padding"));
     CHECK_THROWS_WITH(ikd::validate(mutated(5, e.words[5] + 1), gn), Contains("levels"));
     CHECK_THROWS_WITH(ikd::validate(mutated(6, e.words[6] + 1), gn), Contains("nodes stored"));
-    CHECK_THROWS_WITH(ikd::validate(mutated(7, 1), gn), Contains("node format"));
+    CHECK_THROWS_WITH(ikd::validate(mutated(7, 2), gn), Contains("node format"));
+    CHECK_THROWS_WITH(ikd::validate(mutated(7, e.words[7] ^ 1u), gn), Contains("nodes stored"));  // 8 <-> 16 bits
     CHECK_THROWS_WITH(ikd::validate(mutated(7, 0x10000u), gn), Contains("node format"));
     CHECK_THROWS_WITH(ikd::validate(mutated(7, 60u << 8), gn), Contains("stored levels"));
     CHECK_THROWS_WITH(ikd::validate(mutated(7, e.words[7] - (1u << 8)), gn), Contains("level table"));
@@ -311,9 +331,20 @@ TEST_CASE("ikd bad input: too small, NaN or out-of-range densities, corrupted en
     CHECK_THROWS_WITH(ikd::validate(mutated(16, 5), gn), Contains("truncated or padded"));
     CHECK_THROWS_WITH(ikd::validate(mutated(20, e.words[20] ^ 3u), gn), Contains("level table"));
     CHECK_THROWS_WITH(ikd::validate(mutated(21, 1), gn), Contains("level table"));
-    CHECK_THROWS_WITH(ikd::validate(mutated(e.words.size() - 1, 0x0000FFFFu), gn), Contains("min above max"));
+    CHECK_THROWS_WITH(ikd::validate(mutated(e.words.size() - 1, 0x000000FFu), gn), Contains("min above max"));  // 8-bit: min 255, max 0
     std::vector<std::uint32_t> cut(e.words.begin(), e.words.end() - 1);
     CHECK_THROWS_WITH(ikd::validate(cut, gn), Contains("truncated"));
+    // 8-bit nodes, two a word: an odd count leaves half of the last word unused, and it must be 0.
+    REQUIRE(e.tree.node_bits == 8);
+    REQUIRE(e.words[6] % 2 == 1);
+    CHECK_THROWS_WITH(ikd::validate(mutated(e.words.size() - 1, e.words.back() | 0x01000000u), gn),
+                      Contains("unused half"));
+    Encoded e16(blobs({9, 6, 5}, 3), ikd::Config{}.brick_levels, 16);
+    REQUIRE_NOTHROW(ikd::validate(e16.words, gn));
+    CHECK(e16.words.size() - 20 - 2 * (e16.words[5] & 255u) == 2 * (e.words.size() - 20 - 2 * (e.words[5] & 255u)) - 1);
+    std::vector<std::uint32_t> m16 = e16.words;
+    m16.back() = 0x0000FFFFu;
+    CHECK_THROWS_WITH(ikd::validate(m16, gn), Contains("min above max"));
 
     // Whatever a header word holds, the iterator either refuses the encoding (ERROR) or runs to
     // the end without reading outside the buffers (the host's Words checks every load).

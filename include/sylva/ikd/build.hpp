@@ -8,7 +8,8 @@
 //  * per stored node, the [min, max] of the normalised densities at the corners of every real
 //    cell below it, computed bottom-up level by level and in parallel over each level's z rows;
 //    the cells themselves (the last level) are not stored (section 5.2);
-//  * min/max as unorm16 rounded outward (min down, max up), so culling stays conservative.
+//  * min/max as unorm16 or unorm8 (Config::node_bits) rounded outward (min down, max up), so
+//    culling stays conservative.
 // Virtual nodes (those starting at or beyond the real cells) are never stored: each level holds
 // ceil(C / width) nodes per axis, addressed from the node's first cell (no pointers).
 #ifndef SYLVA_IKD_BUILD_HPP
@@ -45,7 +46,11 @@ struct Tree {
     glm::u32vec3 lg{0};     ///< log2 of the padded cell counts
     std::vector<Level> levels;          ///< all L levels (axes and widths), stored or not
     std::uint32_t stored_levels = 0;    ///< levels with node words; the rest are bricks
-    std::vector<std::uint32_t> ranges;  ///< one word per stored node, level by level
+    /// One word per stored node, level by level: unorm16 min | max << 16. With node_bits 8 the
+    /// ranges were rounded outward to unorm8 q and are held here as q * 257 (the same density),
+    /// as sylva_ikd_node_word reads them back from the encoding's half words.
+    std::vector<std::uint32_t> ranges;
+    std::uint32_t node_bits = 16;       ///< 16 or 8: the encoding's node format
     vec3 spacing{1.0f};                 ///< world size of one cell (the grid's voxel size)
     vec3 origin{0.5f};                  ///< world position of sample (0, 0, 0)
     float range_lo = 0.0f, range_hi = 1.0f;  ///< raw values of densities 0 and 1 (information)
@@ -53,22 +58,31 @@ struct Tree {
 
     /// Total cells, and the bytes of the encoding (header, level table, node words).
     [[nodiscard]] std::size_t cell_count() const { return std::size_t{cells.x} * cells.y * cells.z; }
-    [[nodiscard]] std::size_t bytes() const { return (20 + 2 * levels.size() + ranges.size()) * 4; }
+    [[nodiscard]] std::size_t bytes() const {
+        return (20 + 2 * levels.size() + (node_bits == 8 ? (ranges.size() + 1) / 2 : ranges.size())) * 4;
+    }
 };
 
 /// Settings of ikd::build.
 struct Config {
     /// Bottom levels not stored (bricks). 0 is the paper's slim tree without leaves (section
-    /// 5.2; here one word, two unorm16, per node: about one word per cell). Each level more
-    /// halves the node words; below the stored levels nothing is culled and a brick's cells are
-    /// tested one by one (section 5.2 proposes such bricks and 4-bit ranges without measuring
-    /// them). 3 levels are bricks of 2x2x2 cells, 1/8 of a word per cell; 4 (the default)
-    /// bricks of 4x2x2, 1/16 of a word per cell (a quarter of 8-bit data, 1/8 of 16-bit); 6
-    /// bricks of 4x4x4, 1/64 of a word per cell. On the 8-bit aneurism and bonsai at 512^2
-    /// (iso 0.3) the default is 4.2 MB against 1.05 MB with 6 levels and the slim tree's
-    /// 66.8 MB (the data: 16.8 MB), and its packets are about 1.2x faster than with 6 levels
-    /// (README, Wald section: sylva-iso-bench; sylva-render --ikd-bricks).
-    std::uint32_t brick_levels = 4;
+    /// 5.2: one node per cell pair, about one node per cell). Each level more halves the nodes;
+    /// below the stored levels nothing is culled and a brick's cells are tested one by one
+    /// (section 5.2 proposes such bricks and smaller ranges without measuring them). 3 (the
+    /// default) leaves bricks of 2x2x2 cells, 4 of 4x2x2, 6 of 4x4x4. On the 8-bit aneurism
+    /// and bonsai at 512^2 (iso 0.3), with 8-bit nodes: 4.2 MB with 3 levels, 2.1 MB with 4,
+    /// 0.5 MB with 6 and the slim 16-bit tree's 66.8 MB (the data: 16.8 MB); packets through 3
+    /// levels take 7.5 steps a ray against 8.3 with 4 and 10.5 with 6, and are 1.03-1.05x
+    /// faster than with 4 and about 1.15x than with 6 (README, Wald section: sylva-iso-bench
+    /// --alt-bricks N --alt-bits B; sylva-render --ikd-bricks N --ikd-node-bits B).
+    std::uint32_t brick_levels = 3;
+    /// Bits of a node's min and max: 8 (the default: unorm8, half a word a node, Wald's 8-bit
+    /// ranges of section 5.2) or 16 (unorm16, one word). Both are rounded outward from the exact
+    /// densities, so culling stays conservative and the candidate cells are the same; 8 bits
+    /// halve the index and cull a little less on data with more than 8 bits (a node is kept
+    /// when an isovalue is within 1/255 of its range). On the aneurism and bonsai the packets'
+    /// speed through 4 brick levels was the same with 8 and 16 bits (0.99-1.04x).
+    std::uint32_t node_bits = 8;
     /// Raw value range the grid was normalised with (recorded in the header; sylva-render passes
     /// the volume's). Default: densities as they are.
     float range_lo = 0.0f;
@@ -174,10 +188,12 @@ LevelRanges level_ranges(const volume::DensityGrid& g, const Level& l, glm::u32v
     return out;
 }
 
-/// unorm16 min (rounded down) | max (rounded up) << 16.
-inline std::uint32_t pack_range(float lo, float hi) {
-    double a = std::floor(static_cast<double>(lo) * 65535.0), b = std::ceil(static_cast<double>(hi) * 65535.0);
-    auto q = [](double v) { return static_cast<std::uint32_t>(std::clamp(v, 0.0, 65535.0)); };
+/// unorm16 min (rounded down) | max (rounded up) << 16; with 8 bits the unorm8 codes rounded
+/// the same way, widened to q * 257 (their unorm16 code).
+inline std::uint32_t pack_range(float lo, float hi, std::uint32_t bits = 16) {
+    double top = bits == 8 ? 255.0 : 65535.0, widen = bits == 8 ? 257.0 : 1.0;
+    double a = std::floor(static_cast<double>(lo) * top), b = std::ceil(static_cast<double>(hi) * top);
+    auto q = [&](double v) { return static_cast<std::uint32_t>(std::clamp(v, 0.0, top) * widen); };
     return q(a) | (q(b) << 16);
 }
 
@@ -190,7 +206,10 @@ template <Executor X>
 Tree build(const volume::DensityGrid& g, X& exec, const Config& cfg = {}) {
     auto t0 = std::chrono::steady_clock::now();
     detail::check_grid(g);
+    if (cfg.node_bits != 8 && cfg.node_bits != 16)
+        throw Error("ikd::build: node_bits " + std::to_string(cfg.node_bits) + "; 8 or 16");
     Tree t;
+    t.node_bits = cfg.node_bits;
     t.cells = g.dims - 1u;
     t.lg = glm::u32vec3(detail::log2_ceil(t.cells.x), detail::log2_ceil(t.cells.y), detail::log2_ceil(t.cells.z));
     t.levels = detail::make_levels(t.cells, t.lg);
@@ -213,7 +232,7 @@ Tree build(const volume::DensityGrid& g, X& exec, const Config& cfg = {}) {
                                                         cells_below ? nullptr : &below, exec);
         if (l < t.stored_levels)
             for (std::size_t i = 0; i < here.lo.size(); ++i)
-                t.ranges[t.levels[l].first + i] = detail::pack_range(here.lo[i], here.hi[i]);
+                t.ranges[t.levels[l].first + i] = detail::pack_range(here.lo[i], here.hi[i], cfg.node_bits);
         below = std::move(here);
     }
     t.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

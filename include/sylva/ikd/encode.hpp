@@ -15,12 +15,17 @@
 
 namespace sylva::ikd {
 
-/// The encoding of `t` (layout: sylva/shared/ikd_layout.h). Throws sylva::Error when the tree
-/// is inconsistent (its level table and node words disagree) or the words exceed 2^32 - 1.
+/// The encoding of `t` (layout: sylva/shared/ikd_layout.h; node format 1, two nodes a word,
+/// when t.node_bits is 8). Throws sylva::Error when the tree is inconsistent (its level table
+/// and node words disagree, ranges that are not 8-bit in an 8-bit tree) or the words exceed
+/// 2^32 - 1.
 inline std::vector<std::uint32_t> encode(const Tree& t) {
     const std::size_t levels = t.levels.size();
     const std::size_t nodes_at = SYLVA_IKD_HEADER_WORDS + 2 * levels;
-    const std::size_t total = nodes_at + t.ranges.size();
+    if (t.node_bits != 8 && t.node_bits != 16) throw Error("ikd::encode: node_bits " + std::to_string(t.node_bits) + "; 8 or 16");
+    const bool half = t.node_bits == 8;
+    const std::size_t node_words = half ? (t.ranges.size() + 1) / 2 : t.ranges.size();
+    const std::size_t total = nodes_at + node_words;
     if (total > 0xFFFFFFFFu) throw Error("ikd::encode: " + std::to_string(total) + " words exceed 2^32 - 1");
     std::size_t expected = 0;
     for (std::size_t l = 0; l < std::min<std::size_t>(t.stored_levels, levels); ++l) expected += t.levels[l].count();
@@ -37,7 +42,7 @@ inline std::vector<std::uint32_t> encode(const Tree& t) {
     }
     w[5] = static_cast<std::uint32_t>(levels) | (t.lg.x << 8) | (t.lg.y << 16) | (t.lg.z << 24);
     w[6] = static_cast<std::uint32_t>(t.ranges.size());
-    w[7] = SYLVA_IKD_FORMAT_UNORM16 | (t.stored_levels << 8);
+    w[7] = (half ? SYLVA_IKD_FORMAT_UNORM8 : SYLVA_IKD_FORMAT_UNORM16) | (t.stored_levels << 8);
     w[8] = std::bit_cast<std::uint32_t>(t.range_lo);
     w[9] = std::bit_cast<std::uint32_t>(t.range_hi);
     w[16] = static_cast<std::uint32_t>(total);
@@ -47,7 +52,16 @@ inline std::vector<std::uint32_t> encode(const Tree& t) {
             lv.axis | (lv.log2_width.x << 8) | (lv.log2_width.y << 16) | (lv.log2_width.z << 24);
         w[SYLVA_IKD_HEADER_WORDS + 2 * l + 1] = lv.first;
     }
-    std::copy(t.ranges.begin(), t.ranges.end(), w.begin() + static_cast<std::ptrdiff_t>(nodes_at));
+    if (!half) {
+        std::copy(t.ranges.begin(), t.ranges.end(), w.begin() + static_cast<std::ptrdiff_t>(nodes_at));
+        return w;
+    }
+    for (std::size_t k = 0; k < t.ranges.size(); ++k) {  // q * 257 back to q: min | max << 8, two a word
+        std::uint32_t r = t.ranges[k], lo = (r & 0xFFFFu) / 257u, hi = (r >> 16) / 257u;
+        if (lo * 257u != (r & 0xFFFFu) || hi * 257u != (r >> 16))
+            throw Error("ikd::encode: node " + std::to_string(k) + "'s range is not 8-bit (node_bits 8)");
+        w[nodes_at + k / 2] |= (lo | hi << 8) << (16 * (k & 1));
+    }
     return w;
 }
 

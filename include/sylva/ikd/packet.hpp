@@ -228,7 +228,7 @@ public:
             std::uint32_t entry = shared::sylva_ikd_level_entry(words_, n.level);
             if (n.level < hdr_.stored) {
                 std::uint32_t i = shared::sylva_ikd_node_index(words_, hdr_.cells, n.level, entry, n.node);
-                if (!shared::sylva_ikd_word_holds(words_[hdr_.nodes_at + i], at_most_, below_)) continue;  // culled for every lane
+                if (!shared::sylva_ikd_word_holds(shared::sylva_ikd_node_word(words_, hdr_, i), at_most_, below_)) continue;  // culled for every lane
             }
             have = descend(n, entry);
         }

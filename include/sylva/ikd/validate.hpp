@@ -22,7 +22,7 @@ inline void validate_fixed_words(std::span<const std::uint32_t> w) {
         throw Error("ikd::validate: " + std::to_string(w.size()) + " words, shorter than the 20-word header");
     if (w[0] != SYLVA_IKD_MAGIC) throw Error("ikd::validate: bad magic (not an implicit kd-tree encoding)");
     if (w[1] != SYLVA_IKD_VERSION) throw Error("ikd::validate: unsupported version " + std::to_string(w[1]));
-    if ((w[7] & 255u) != SYLVA_IKD_FORMAT_UNORM16 || (w[7] >> 16) != 0u)
+    if (((w[7] & 255u) != SYLVA_IKD_FORMAT_UNORM16 && (w[7] & 255u) != SYLVA_IKD_FORMAT_UNORM8) || (w[7] >> 16) != 0u)
         throw Error("ikd::validate: unknown node format " + std::to_string(w[7] & 255u) + " (word 7 = " +
                     std::to_string(w[7]) + ")");
     if (w[16] != w.size())
@@ -75,13 +75,21 @@ inline void validate(std::span<const std::uint32_t> words, std::size_t grid_word
     std::uint32_t implied = sylva_ikd_check_levels(buf, cells, lg, levels, stored);
     if (implied == 0xFFFFFFFFu)
         throw Error("ikd::validate: the level table is inconsistent (axes, widths or first nodes)");
-    if (implied != words[6] || words.size() != SYLVA_IKD_HEADER_WORDS + 2 * std::size_t{levels} + implied)
-        throw Error("ikd::validate: " + std::to_string(words[6]) + " nodes stored, the level table implies " +
-                    std::to_string(implied));
-    for (std::size_t i = SYLVA_IKD_HEADER_WORDS + 2 * std::size_t{levels}; i < words.size(); ++i)
-        if ((words[i] & 0xFFFFu) > (words[i] >> 16))
-            throw Error("ikd::validate: node " + std::to_string(i - SYLVA_IKD_HEADER_WORDS - 2 * levels) +
-                        " has min above max");
+    std::uint32_t format = words[7] & 255u;
+    const std::size_t nodes_at = SYLVA_IKD_HEADER_WORDS + 2 * std::size_t{levels};
+    if (implied != words[6] || words.size() != nodes_at + sylva_ikd_node_words(implied, format))
+        throw Error("ikd::validate: " + std::to_string(words[6]) + " nodes stored in " +
+                    std::to_string(words.size() - nodes_at) + " words, the level table implies " +
+                    std::to_string(implied) + " nodes");
+    SylvaIkdHeader h{};
+    h.format = format;
+    h.nodes_at = static_cast<std::uint32_t>(nodes_at);
+    for (std::uint32_t k = 0; k < implied; ++k) {
+        std::uint32_t r = sylva_ikd_node_word(buf, h, k);
+        if ((r & 0xFFFFu) > (r >> 16)) throw Error("ikd::validate: node " + std::to_string(k) + " has min above max");
+    }
+    if (format == SYLVA_IKD_FORMAT_UNORM8 && (implied & 1u) != 0u && (words.back() >> 16) != 0u)
+        throw Error("ikd::validate: the unused half of the last 8-bit node word is not 0");
     if (sylva_ikd_read_header(buf, static_cast<std::uint32_t>(words.size()), static_cast<std::uint32_t>(grid_words))
             .valid == 0u)
         throw Error("ikd::validate: the shared header reader refuses the encoding");

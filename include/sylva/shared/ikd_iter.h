@@ -353,7 +353,8 @@ SYLVA_FN bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYL
         uint entry = sylva_ikd_level_entry(SYLVA_PASS_BUF(words), it.level);
         if (it.level < it.hdr.stored) {  // below: a brick's levels, not stored, never culled
             uint index = sylva_ikd_node_index(SYLVA_PASS_BUF(words), it.hdr.cells, it.level, entry, it.node);
-            if (!sylva_ikd_word_holds(SYLVA_LOAD(words, it.hdr.nodes_at + index), it.iso_at_most, it.iso_below)) {
+            if (!sylva_ikd_word_holds(sylva_ikd_node_word(SYLVA_PASS_BUF(words), it.hdr, index), it.iso_at_most,
+                                      it.iso_below)) {
                 it.level = SYLVA_IKD_NO_NODE;  // culled with its subtree (section 4.1)
                 continue;
             }

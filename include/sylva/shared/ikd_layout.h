@@ -23,9 +23,17 @@
 //   5       bits 0-7: levels L; bits 8-12, 16-20, 24-28: lg.x, lg.y, lg.z (P = 2^lg, the least
 //           power of two >= C; L = lg.x + lg.y + lg.z <= 48)
 //   6       stored nodes N (levels 0 .. L - 1)
-//   7       bits 0-7: node format: 0 = one word a node, normalised min density as unorm16 in
-//           bits 0-15 (rounded down) and max in bits 16-31 (rounded up), so culling stays
-//           conservative; bits 8-15: stored levels S <= L. Levels S .. L - 1 are bricks
+//   7       bits 0-7: node format, the normalised [min, max] density of a node's cells, min
+//           rounded down and max rounded up so culling stays conservative:
+//             0 (SYLVA_IKD_FORMAT_UNORM16) one word a node: min as unorm16 in bits 0-15, max
+//               in bits 16-31; N node words;
+//             1 (SYLVA_IKD_FORMAT_UNORM8) half a word a node: node k in bits 16 (k & 1) ..
+//               16 (k & 1) + 15 of node word k >> 1, min as unorm8 in its bits 0-7 and max in
+//               bits 8-15 (Wald's 8-bit ranges, section 5.2); (N + 1) / 2 node words, the
+//               unused half of the last one 0. Readers widen q to q * 257, the unorm16 code of
+//               the same density q / 255 (sylva_ikd_node_word), so both formats are tested
+//               alike;
+//           bits 8-15: stored levels S <= L. Levels S .. L - 1 are bricks
 //           (sylva/ikd/build.hpp Config::brick_levels): not stored, never culled, their cells
 //           tested one by one; bits 16-31: 0
 //   8-9     value range lo, hi (float bits): the raw values that mapped to densities 0 and 1
@@ -39,7 +47,7 @@
 //           width in cells w.x, w.y, w.z (level 0: lg; level l + 1: level l's with w.a - 1)
 //   21 + 2l first node of level l (index into the node words; level 0 starts at 0; levels
 //           S .. L - 1 store none and hold the node count N)
-//   20 + 2L the node words, level by level; node (x0, y0, z0) of level l is node
+//   20 + 2L the node words (format: word 7), level by level; node (x0, y0, z0) of level l is node
 //           first_l + (x0 >> w.x) + r.x * ((y0 >> w.y) + r.y * (z0 >> w.z)), with
 //           r = ceil(C / 2^w) the real nodes of the level per axis.
 // The grid the cells read is a separate buffer `grid` of (C.x + 1) (C.y + 1) (C.z + 1) words,
@@ -55,6 +63,7 @@
 #define SYLVA_IKD_MAX_CELLS 65535u
 #define SYLVA_IKD_MAX_LEVELS 48u
 #define SYLVA_IKD_FORMAT_UNORM16 0u
+#define SYLVA_IKD_FORMAT_UNORM8 1u
 
 SYLVA_BEGIN_NAMESPACE
 
@@ -75,6 +84,11 @@ struct SylvaIkdHeader {
 
 /// Bits [at, at + 5) of w.
 SYLVA_FN uint sylva_ikd_bits5(uint w, uint at) { return (w >> at) & 31u; }
+
+/// Node words that hold n nodes in `format` (SYLVA_IKD_FORMAT_UNORM16 or _UNORM8).
+SYLVA_FN uint sylva_ikd_node_words(uint n, uint format) {
+    return (format == SYLVA_IKD_FORMAT_UNORM8) ? (n >> 1u) + (n & 1u) : n;
+}
 
 /// Least lg with 2^lg >= c (c >= 1).
 SYLVA_FN uint sylva_ikd_log2_ceil(uint c) {
@@ -141,14 +155,15 @@ SYLVA_FN SylvaIkdHeader sylva_ikd_read_header(SYLVA_BUF(words), uint word_count,
     h.nodes_at = SYLVA_IKD_HEADER_WORDS + 2u * h.levels;
     h.valid = 0u;
     bool ok = word_count >= SYLVA_IKD_HEADER_WORDS && SYLVA_LOAD(words, 0u) == SYLVA_IKD_MAGIC &&
-              SYLVA_LOAD(words, 1u) == SYLVA_IKD_VERSION && h.format == SYLVA_IKD_FORMAT_UNORM16 &&
+              SYLVA_LOAD(words, 1u) == SYLVA_IKD_VERSION &&
+              (h.format == SYLVA_IKD_FORMAT_UNORM16 || h.format == SYLVA_IKD_FORMAT_UNORM8) &&
               (SYLVA_LOAD(words, 7u) >> 16u) == 0u;
     ok = ok && h.cells.x >= 1u && h.cells.y >= 1u && h.cells.z >= 1u && h.cells.x <= SYLVA_IKD_MAX_CELLS &&
          h.cells.y <= SYLVA_IKD_MAX_CELLS && h.cells.z <= SYLVA_IKD_MAX_CELLS;
     ok = ok && h.lg.x == sylva_ikd_log2_ceil(h.cells.x) && h.lg.y == sylva_ikd_log2_ceil(h.cells.y) &&
          h.lg.z == sylva_ikd_log2_ceil(h.cells.z) && h.levels == h.lg.x + h.lg.y + h.lg.z && h.stored <= h.levels;
     ok = ok && SYLVA_LOAD(words, 16u) == word_count && h.nodes_at <= word_count &&
-         word_count - h.nodes_at == h.node_count;
+         word_count - h.nodes_at == sylva_ikd_node_words(h.node_count, h.format);
     ok = ok && h.spacing.x > 0.0f && h.spacing.y > 0.0f && h.spacing.z > 0.0f && h.spacing.x < sylva_inf() &&
          h.spacing.y < sylva_inf() && h.spacing.z < sylva_inf();
     ok = ok && h.inv_spacing.x > 0.0f && h.inv_spacing.y > 0.0f && h.inv_spacing.z > 0.0f &&
@@ -177,6 +192,16 @@ SYLVA_FN uint sylva_ikd_node_index(SYLVA_BUF(words), uvec3 cells, uint l, uint e
     uvec3 w = sylva_ikd_level_widths(entry);
     uvec3 r = sylva_ikd_real_nodes(cells, w);
     return sylva_ikd_level_first(SYLVA_PASS_BUF(words), l) + (o.x >> w.x) + r.x * ((o.y >> w.y) + r.y * (o.z >> w.z));
+}
+
+/// Node k's range as a unorm16 pair (min | max << 16) whatever the header's format: an 8-bit
+/// code q widens to q * 257, the unorm16 code of the same density q / 255 = q * 257 / 65535.
+SYLVA_FN uint sylva_ikd_node_word(SYLVA_BUF(words), SYLVA_IN(SylvaIkdHeader) hdr, uint k) {
+    if (hdr.format == SYLVA_IKD_FORMAT_UNORM8) {
+        uint pair = (SYLVA_LOAD(words, hdr.nodes_at + (k >> 1u)) >> ((k & 1u) * 16u)) & 0xFFFFu;
+        return ((pair & 0xFFu) * 257u) | (((pair >> 8u) * 257u) << 16u);
+    }
+    return SYLVA_LOAD(words, hdr.nodes_at + k);
 }
 
 /// Normalised [min, max] density of a node word (unorm16 pair).
