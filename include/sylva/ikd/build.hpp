@@ -72,16 +72,17 @@ struct Config {
     /// default) leaves bricks of 2x2x2 cells, 4 of 4x2x2, 6 of 4x4x4. On the 8-bit aneurism
     /// and bonsai at 512^2 (iso 0.3), with 8-bit nodes: 4.2 MB with 3 levels, 2.1 MB with 4,
     /// 0.5 MB with 6 and the slim 16-bit tree's 66.8 MB (the data: 16.8 MB); packets through 3
-    /// levels take 7.5 steps a ray against 8.3 with 4 and 10.5 with 6, and are 1.03-1.05x
-    /// faster than with 4 and about 1.15x than with 6 (README, Wald section: sylva-iso-bench
+    /// levels take 7.5 steps a ray against 8.3 with 4 and 10.5 with 6, and are 1.02-1.05x
+    /// faster than with 4 and 1.14-1.2x than with 6 (README, Wald section: sylva-iso-bench
     /// --alt-bricks N --alt-bits B; sylva-render --ikd-bricks N --ikd-node-bits B).
     std::uint32_t brick_levels = 3;
     /// Bits of a node's min and max: 8 (the default: unorm8, half a word a node, Wald's 8-bit
     /// ranges of section 5.2) or 16 (unorm16, one word). Both are rounded outward from the exact
     /// densities, so culling stays conservative and the candidate cells are the same; 8 bits
     /// halve the index and cull a little less on data with more than 8 bits (a node is kept
-    /// when an isovalue is within 1/255 of its range). On the aneurism and bonsai the packets'
-    /// speed through 4 brick levels was the same with 8 and 16 bits (0.99-1.04x).
+    /// when an isovalue is within 1/255 of its range). On the aneurism and bonsai the packets
+    /// through 3 brick levels were 1.01-1.03x faster with 16 bits (whose index, 268 bytes over
+    /// half of 8-bit data, misses issue 11's 0.5x), through 4 levels 0.98-1.04x.
     std::uint32_t node_bits = 8;
     /// Raw value range the grid was normalised with (recorded in the header; sylva-render passes
     /// the volume's). Default: densities as they are.
