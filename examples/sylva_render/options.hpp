@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <sylva/ikd/build.hpp>
 #include <sylva/volume/value_range.hpp>
 
 namespace sylva_render {
@@ -46,8 +47,8 @@ struct Options {
     std::uint32_t lod_depth = 64;    ///< --lod-depth N: max LoD depth
     float iso = 0.5f;                ///< --iso V: iso value for --mode iso (the first of --iso V1,V2,...)
     std::vector<float> isos{0.5f};   ///< --iso V1[,V2,...]: up to 4 isovalues (implicit-kd, dda)
-    std::uint32_t ikd_bricks = 3;    ///< --ikd-bricks N: bottom levels of the implicit kd-tree not stored (0: slim tree)
-    std::uint32_t ikd_node_bits = 8; ///< --ikd-node-bits 8|16: bits of a node's min and max (ikd::Config::node_bits)
+    std::uint32_t ikd_bricks = sylva::ikd::Config{}.brick_levels;  ///< --ikd-bricks N: bottom levels of the implicit kd-tree not stored (0: slim tree)
+    std::uint32_t ikd_node_bits = sylva::ikd::Config{}.node_bits;  ///< --ikd-node-bits 8|16: bits of a node's min and max (ikd::Config::node_bits)
     bool iso_cull = true;            ///< --iso-cull on|off: skip nodes whose density range excludes V
     std::uint32_t steps = 1024;      ///< --steps N: samples along the longest axis (reference marcher, multi)
     bool shading = false;            ///< --shading: Lambert shading from the gradient
