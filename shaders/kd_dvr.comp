@@ -18,6 +18,10 @@ layout(constant_id = 1) const uint GRID_PARTS = 4u;
 layout(constant_id = 2) const uint KD_SHIFT = 25u;
 layout(constant_id = 3) const uint KD_PARTS = 4u;
 layout(constant_id = 4) const int STACK_SIZE = 64;
+// The grid's voxel format and border mode (vk::DeviceGrid::constants; 0xFFFFFFFF: from the
+// parameter block), fixed so that the other samplers fold away (sylva/shared/dvr_main.glsl).
+layout(constant_id = 5) const uint GRID_FORMAT = 0xFFFFFFFFu;
+layout(constant_id = 6) const uint GRID_BORDER = 0xFFFFFFFFu;
 #define SYLVA_KD_STACK_SIZE STACK_SIZE
 
 #include "sylva/shared/split_words.glsl"
@@ -37,6 +41,8 @@ uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
+    if (GRID_FORMAT != 0xFFFFFFFFu) p.grid_format = GRID_FORMAT;
+    if (GRID_BORDER != 0xFFFFFFFFu) p.border = GRID_BORDER;
     uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= p.width || px.y >= p.height) return;
     SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);

@@ -71,6 +71,15 @@ struct IsoCounters {
 /// The shared parameter block of `p` for a tree of `tree_words` and a grid of `grid_words`
 /// words (layout: sylva/shared/iso_render.h). Throws sylva::Error for 0 or more than 4
 /// surfaces, a value or colour that is not finite, an empty image.
+/// The implicit kd-tree's iterators read float32 grid words (GridWords::from): throws
+/// sylva::Error naming the format otherwise (a native or sparse grid would be refused by the
+/// header check with a less helpful message).
+inline void check_iso_grid(const GridWords& grid) {
+    if (grid.sampling.format != GridFormat::F32)
+        throw Error("render: the implicit kd-tree reads float32 grid words (GridWords::from), not format " +
+                    std::to_string(static_cast<std::uint32_t>(grid.sampling.format)));
+}
+
 inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size_t tree_words, std::size_t grid_words) {
     if (p.isos.empty() || p.isos.size() > 4)
         throw Error("render: " + std::to_string(p.isos.size()) + " isovalues; 1 to 4 can be rendered at once");
@@ -158,6 +167,7 @@ inline void iso_store(const shared::SylvaIsoRay& r, std::size_t i, Frame& f, Iso
 template <Executor X>
 Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p, X& exec,
                      IsoCounters* counters = nullptr) {
+    check_iso_grid(grid);
     std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size());
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
@@ -251,6 +261,7 @@ template <Executor X>
 Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p,
                              X& exec, IsoCounters* counters = nullptr) {
     if (p.walker != IsoWalker::Tree) throw Error("render: packets traverse the implicit kd-tree, not the DDA");
+    check_iso_grid(grid);
     std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size());
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);

@@ -265,11 +265,12 @@ EssCodes ess_codes(const volume::DensityGrid& g, std::uint32_t entries, X& exec,
 /// grid's own border.
 template <Executor X>
 EssCodes ess_codes(const GridWords& g, std::uint32_t entries, X& exec) {
-    g.sampling.check();
-    if (g.words.size() != g.expected_words())
-        throw Error("kd-dvr: GridWords holds " + std::to_string(g.words.size()) + " words for its dimensions");
+    g.check_words("kd-dvr");
     shared::Words w{g.words.data(), g.words.size()};
     shared::SylvaGridDesc desc = g.desc();
+    if (is_sparse(g.sampling.format))
+        return detail::ess_codes_of([&](std::size_t i) { return g.density(i); }, g.dims, g.spacing, entries,
+                                    g.sampling.border, exec);
     return detail::ess_codes_of(
         [&](std::size_t i) { return shared::sylva_grid_word_density(w, desc, static_cast<std::uint32_t>(i)); }, g.dims,
         g.spacing, entries, g.sampling.border, exec);
@@ -312,6 +313,7 @@ public:
     EssRebuilder(const GridWords& g, const kdtree::Config& cfg, X& exec)
         : words_(&g), exec_(&exec), cfg_(cfg), border_(g.sampling.border) {
         kdtree::detail::check_config(cfg);
+        g.check_words("kd-dvr");
     }
     EssRebuilder(const EssRebuilder&) = delete;
     EssRebuilder& operator=(const EssRebuilder&) = delete;

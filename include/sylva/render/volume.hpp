@@ -154,20 +154,57 @@ struct GridWords {
         out.sampling.check();
         return out;
     }
+    /// An integer volume as sparse words (pack_sparse_words, sylva/render/grid_view.hpp): 8^3
+    /// bricks, the uniform ones held by their value in the brick table, the others at 1 / 2
+    /// bytes a voxel; the same densities as native(v), so the same images. Throws sylva::Error
+    /// for a float32 volume, bad sizes or an empty range.
+    static GridWords sparse(const volume::Volume& v, GridBorder border = {}) {
+        checked_count(v.dims, v.spacing);
+        GridWords out{v.dims, v.spacing, pack_sparse_words(v), GridSampling{}};
+        out.sampling.format = v.type == volume::ScalarType::U8 ? GridFormat::SparseU8 : GridFormat::SparseU16;
+        out.sampling.value_lo = v.range_lo;
+        out.sampling.value_span = v.range_hi - v.range_lo;
+        out.sampling.border = border;
+        out.sampling.check();
+        return out;
+    }
     /// World box [0, dims * spacing].
     [[nodiscard]] Aabb world_box() const { return Aabb{vec3(0.0f), vec3(dims) * spacing}; }
     /// Voxel count.
     [[nodiscard]] std::size_t voxels() const { return volume::voxel_count(dims); }
-    /// Words the grid needs in its format.
-    [[nodiscard]] std::size_t expected_words() const { return grid_word_count(sampling.format, voxels()); }
-    /// Bytes of voxel data: voxels x 1 (uint8), 2 (uint16) or 4 (float32).
-    [[nodiscard]] std::size_t grid_bytes() const { return voxels() * grid_voxel_bytes(sampling.format); }
+    /// Words a dense grid needs in its format (sparse grids: the words they hold).
+    [[nodiscard]] std::size_t expected_words() const {
+        return is_sparse(sampling.format) ? words.size() : grid_word_count(sampling.format, voxels());
+    }
+    /// Checks the words against the format and dims: a dense grid's word count, a sparse grid's
+    /// brick table (check_sparse_words). Throws sylva::Error naming the problem; `who` prefixes it.
+    void check_words(const std::string& who) const {
+        sampling.check();
+        if (is_sparse(sampling.format)) {
+            try {
+                check_sparse_words(words, dims, sampling.format);
+            } catch (const Error& e) {
+                throw Error(who + ": " + e.what());
+            }
+        } else if (words.size() != expected_words()) {
+            throw Error(who + ": GridWords holds " + std::to_string(words.size()) + " words for its dimensions (" +
+                        std::to_string(expected_words()) + " expected)");
+        }
+    }
+    /// Bytes of voxel data: voxels x 1 (uint8), 2 (uint16) or 4 (float32); a sparse grid's words
+    /// (table and stored bricks).
+    [[nodiscard]] std::size_t grid_bytes() const {
+        return is_sparse(sampling.format) ? words.size() * 4 : voxels() * grid_voxel_bytes(sampling.format);
+    }
     /// The shared sampler's descriptor.
     [[nodiscard]] shared::SylvaGridDesc desc() const { return sampling.desc(dims, spacing); }
-    /// Normalised density of voxel i (i < voxels()), as the samplers read it.
+    /// Normalised density of voxel i (i < voxels(), x fastest), as the samplers read it.
     [[nodiscard]] float density(std::size_t i) const {
-        return shared::sylva_grid_word_density(shared::Words{words.data(), words.size()}, desc(),
-                                               static_cast<std::uint32_t>(i));
+        shared::Words w{words.data(), words.size()};
+        if (!is_sparse(sampling.format))
+            return shared::sylva_grid_word_density(w, desc(), static_cast<std::uint32_t>(i));
+        std::size_t x = i % dims.x, y = (i / dims.x) % dims.y, z = i / (std::size_t{dims.x} * dims.y);
+        return shared::sylva_grid_voxel_of(w, desc(), std::uint32_t(x), std::uint32_t(y), std::uint32_t(z));
     }
 
 private:
@@ -359,9 +396,7 @@ inline std::vector<std::uint32_t> pack_bih_dvr(const shared::SylvaBihHeader& h, 
 
 /// Packs and checks the parameters of the marcher over `grid`.
 inline std::vector<std::uint32_t> dvr_params(const GridWords& grid, const VolumeRenderParams& p) {
-    grid.sampling.check();
-    if (grid.words.size() != grid.expected_words())
-        throw Error("render: GridWords holds " + std::to_string(grid.words.size()) + " words for its dimensions");
+    grid.check_words("render");
     std::vector<std::uint32_t> w = detail::pack_dvr(grid.dims, grid.spacing, p);
     grid.sampling.pack(w);
     return w;

@@ -34,7 +34,7 @@
 //   37     opacity correction: SYLVA_OPACITY_* (exact power of Kinkelin 4.3, or none)
 //   38     border mode of the grid samplers: SYLVA_BORDER_* (clamp to edge, or a constant)
 //   39     border value (float bits; the normalised density read outside the grid)
-//   40     grid voxel format: SYLVA_GRID_* (float32, uint8, uint16)
+//   40     grid voxel format: SYLVA_GRID_* (float32, uint8, uint16; sparse 8^3 bricks of uint8, uint16)
 //   41     value offset lo (float bits): density = (raw - lo) / (hi - lo) for integer formats
 //   42     value span hi - lo (float bits, > 0; the division is exact as written, v / max)
 //   43-47  reserved, 0
@@ -64,6 +64,8 @@
 #define SYLVA_GRID_F32 0u
 #define SYLVA_GRID_U8 1u
 #define SYLVA_GRID_U16 2u
+#define SYLVA_GRID_SPARSE_U8 3u
+#define SYLVA_GRID_SPARSE_U16 4u
 /// Hard cap on the samples of one ray (loops stay bounded whatever the parameters).
 #define SYLVA_DVR_MAX_SAMPLES 16777216u
 

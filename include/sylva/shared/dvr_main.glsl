@@ -19,10 +19,16 @@
 // 6 output, 5 words per pixel: premultiplied R, G, B, alpha (float bits) and the number of
 // lattice samples visited; 7 the caller's rays, 6 words a pixel (sylva/shared/rays.h; read only
 // when the ray source word is SYLVA_RAYS_BUFFER, else a dummy is bound).
-// Specialization constants: 0 split shift of the grid, 1 parts holding data (1: fast loads).
+// Specialization constants: 0 split shift of the grid, 1 parts holding data (1: fast loads),
+// 2 the grid's voxel format and 3 its border mode (SYLVA_GRID_*, SYLVA_BORDER_*; the default
+// 0xFFFFFFFF reads them from the parameter block). vk::DeviceGrid::constants() fixes both, so
+// that the samplers of the other formats and border fold away: lavapipe's compile of a kernel
+// holding every format's sampler, with its grid split over four bindings, ran for minutes.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
 layout(constant_id = 1) const uint GRID_PARTS = 4u;
+layout(constant_id = 2) const uint GRID_FORMAT = 0xFFFFFFFFu;
+layout(constant_id = 3) const uint GRID_BORDER = 0xFFFFFFFFu;
 
 #include "sylva/shared/split_words.glsl"
 SYLVA_SPLIT_WORDS_COUNTED(grid, 0, SPLIT_SHIFT, GRID_PARTS)
@@ -42,6 +48,8 @@ uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
+    if (GRID_FORMAT != 0xFFFFFFFFu) p.grid_format = GRID_FORMAT;
+    if (GRID_BORDER != 0xFFFFFFFFu) p.border = GRID_BORDER;
     uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= p.width || px.y >= p.height) return;
     SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);

@@ -6,8 +6,17 @@
 //   SYLVA_GRID_F32  one voxel a word: the float bits of a normalised density
 //   SYLVA_GRID_U8   four voxels a word: voxel i in bits 8 (i & 3) .. 8 (i & 3) + 7 of word i >> 2
 //   SYLVA_GRID_U16  two voxels a word: voxel i in bits 16 (i & 1) .. of word i >> 1
-// (little-endian byte order, so a uint8/uint16 volume's bytes are its words unchanged). An
-// integer voxel of raw value v reads as density clamp((v - lo) / span, 0, 1) with lo = value_lo
+// (little-endian byte order, so a uint8/uint16 volume's bytes are its words unchanged).
+//   SYLVA_GRID_SPARSE_U8, SYLVA_GRID_SPARSE_U16  bricks of 8^3 voxels, uniform bricks not stored:
+//     words [0, B) are the brick table, B = bx * by * bz with b? = (dims.? + 7) >> 3, brick
+//     (x >> 3, y >> 3, z >> 3) at entry bx' + bx * (by' + by * bz'). An entry with bit 31 set is
+//     a uniform brick: every voxel of it inside the grid has the raw value in bits 0-15 (bits
+//     16-30 are 0). An entry with bit 31 clear is the word offset (>= B) of the brick's 512
+//     voxels, local voxel l = (x & 7) + 8 ((y & 7) + 8 (z & 7)) packed as in U8 (128 words a
+//     brick) or U16 (256 words); voxels of a brick beyond the grid's faces are never read.
+//     Checked on the host by GridWords::check_words (sylva/render/volume.hpp); a corrupt entry
+//     reads 0 past the buffer, never out of bounds.
+// An integer voxel of raw value v reads as density clamp((v - lo) / span, 0, 1) with lo = value_lo
 // and span = value_span (> 0) -- the division as written, so lo = 0, span = 255 gives exactly
 // v / 255, the value volume::normalize stores (sylva/volume/grid.hpp).
 //
@@ -35,6 +44,12 @@
 #define SYLVA_GRID_U8 1u
 #define SYLVA_GRID_U16 2u
 #endif
+#ifndef SYLVA_GRID_SPARSE_U8
+#define SYLVA_GRID_SPARSE_U8 3u
+#define SYLVA_GRID_SPARSE_U16 4u
+#endif
+/// Sparse formats: bit 31 of a brick-table entry marks a uniform brick (raw value in bits 0-15).
+#define SYLVA_GRID_UNIFORM_BIT 0x80000000u
 
 SYLVA_BEGIN_NAMESPACE
 
@@ -72,8 +87,15 @@ SYLVA_FN float sylva_grid_lerp(float a, float b, float f) {
     return r;
 }
 
-/// Normalised density of voxel index i (< the voxel count) in g's format.
-SYLVA_FN float sylva_grid_word_density(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint i) {
+/// Normalised density of raw integer value `raw` in g's value range.
+SYLVA_FN_HOT float sylva_grid_raw_density(SYLVA_IN(SylvaGridDesc) g, uint raw) {
+    SYLVA_PRECISE float d = (float(raw) - g.value_lo) / g.value_span;
+    return sylva_grid_clamp(d, 0.0f, 1.0f);
+}
+
+/// Normalised density of voxel index i (< the voxel count) of a dense grid (SYLVA_GRID_F32, U8
+/// or U16) in g's format.
+SYLVA_FN_HOT float sylva_grid_word_density(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint i) {
     if (g.format == SYLVA_GRID_F32) return uintBitsToFloat(SYLVA_LOAD(grid, i));
     uint raw;
     if (g.format == SYLVA_GRID_U8) {
@@ -81,12 +103,39 @@ SYLVA_FN float sylva_grid_word_density(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) 
     } else {
         raw = (SYLVA_LOAD(grid, i >> 1u) >> ((i & 1u) * 16u)) & 65535u;
     }
-    SYLVA_PRECISE float d = (float(raw) - g.value_lo) / g.value_span;
-    return sylva_grid_clamp(d, 0.0f, 1.0f);
+    return sylva_grid_raw_density(g, raw);
 }
 
-/// Density of voxel (x, y, z); indices must be inside dims (reads past the buffer give 0).
+/// Sparse formats: the brick-table entry of the brick holding voxel (x, y, z).
+SYLVA_FN uint sylva_grid_sparse_entry(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint x, uint y, uint z) {
+    uint bx = (g.dims.x + 7u) >> 3u;
+    uint by = (g.dims.y + 7u) >> 3u;
+    return SYLVA_LOAD(grid, (x >> 3u) + bx * ((y >> 3u) + by * (z >> 3u)));
+}
+
+/// Sparse formats: the raw value of voxel (x, y, z) of the brick whose table entry is e.
+SYLVA_FN uint sylva_grid_sparse_raw(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint e, uint x, uint y, uint z) {
+    if ((e & SYLVA_GRID_UNIFORM_BIT) != 0u) return e & 65535u;
+    uint l = (x & 7u) + 8u * ((y & 7u) + 8u * (z & 7u));
+    if (g.format == SYLVA_GRID_SPARSE_U8) return (SYLVA_LOAD(grid, e + (l >> 2u)) >> ((l & 3u) * 8u)) & 255u;
+    return (SYLVA_LOAD(grid, e + (l >> 1u)) >> ((l & 1u) * 16u)) & 65535u;
+}
+
+/// Density of voxel (x, y, z) of a dense grid (SYLVA_GRID_F32, U8, U16); indices inside dims.
+SYLVA_FN_HOT float sylva_grid_dense_voxel(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint x, uint y, uint z) {
+    return sylva_grid_word_density(SYLVA_PASS_BUF(grid), g, x + g.dims.x * (y + g.dims.y * z));
+}
+
+/// Density of voxel (x, y, z) of a sparse grid; indices inside dims.
+SYLVA_FN_APART float sylva_grid_sparse_voxel(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint x, uint y, uint z) {
+    uint e = sylva_grid_sparse_entry(SYLVA_PASS_BUF(grid), g, x, y, z);
+    return sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, x, y, z));
+}
+
+/// Density of voxel (x, y, z) in any format; indices must be inside dims (reads past the buffer
+/// give 0).
 SYLVA_FN float sylva_grid_voxel_of(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uint x, uint y, uint z) {
+    if (g.format >= SYLVA_GRID_SPARSE_U8) return sylva_grid_sparse_voxel(SYLVA_PASS_BUF(grid), g, x, y, z);
     return sylva_grid_word_density(SYLVA_PASS_BUF(grid), g, x + g.dims.x * (y + g.dims.y * z));
 }
 
@@ -101,17 +150,57 @@ SYLVA_FN float sylva_grid_index(float p, float s, uint n) {
     return sylva_grid_clamp(u, 0.0f, float((n > 0u) ? n - 1u : 0u));
 }
 
+/// The trilinear blend of eight corner densities c<x><y><z> with weights f: x first, then y,
+/// then z.
+SYLVA_FN float sylva_grid_blend(float c000, float c100, float c010, float c110, float c001, float c101, float c011,
+                                float c111, vec3 f) {
+    float c00 = sylva_grid_lerp(c000, c100, f.x);
+    float c10 = sylva_grid_lerp(c010, c110, f.x);
+    float c01 = sylva_grid_lerp(c001, c101, f.x);
+    float c11 = sylva_grid_lerp(c011, c111, f.x);
+    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+}
+
+/// The trilinear blend of the eight voxels {i0, i1} per axis (inside the grid) of a sparse grid:
+/// one brick-table read when the eight share a brick (a uniform brick then returns its density:
+/// the blend of eight equal values is that value exactly), one per voxel otherwise.
+SYLVA_FN_HOT float sylva_grid_trilinear_sparse(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uvec3 i0, uvec3 i1, vec3 f) {
+    if ((i0.x >> 3u) == (i1.x >> 3u) && (i0.y >> 3u) == (i1.y >> 3u) && (i0.z >> 3u) == (i1.z >> 3u)) {
+        uint e = sylva_grid_sparse_entry(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z);
+        if ((e & SYLVA_GRID_UNIFORM_BIT) != 0u) return sylva_grid_raw_density(g, e & 65535u);
+        return sylva_grid_blend(
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i0.x, i0.y, i0.z)),
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i1.x, i0.y, i0.z)),
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i0.x, i1.y, i0.z)),
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i1.x, i1.y, i0.z)),
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i0.x, i0.y, i1.z)),
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i1.x, i0.y, i1.z)),
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i0.x, i1.y, i1.z)),
+            sylva_grid_raw_density(g, sylva_grid_sparse_raw(SYLVA_PASS_BUF(grid), g, e, i1.x, i1.y, i1.z)), f);
+    }
+    return sylva_grid_blend(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z),
+                            sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i0.z),
+                            sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i0.z),
+                            sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i0.z),
+                            sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i1.z),
+                            sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i1.z),
+                            sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i1.z),
+                            sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i1.z), f);
+}
+
 /// The trilinear blend of the eight voxels {i0, i1} per axis (inside the grid) with weights f:
-/// x first, then y, then z.
-SYLVA_FN float sylva_grid_trilinear(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uvec3 i0, uvec3 i1, vec3 f) {
-    float c00 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i0.z), f.x);
-    float c10 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i0.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i0.z), f.x);
-    float c01 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i1.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i1.z), f.x);
-    float c11 = sylva_grid_lerp(sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i1.z),
-                                sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i1.z), f.x);
+/// x first, then y, then z. Dense grids read their words directly (no per-voxel format test:
+/// one cost the dense marcher 10-30 % of its speed), sparse grids through their brick table.
+SYLVA_FN_HOT float sylva_grid_trilinear(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uvec3 i0, uvec3 i1, vec3 f) {
+    if (g.format >= SYLVA_GRID_SPARSE_U8) return sylva_grid_trilinear_sparse(SYLVA_PASS_BUF(grid), g, i0, i1, f);
+    float c00 = sylva_grid_lerp(sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i0.z),
+                                sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i0.z), f.x);
+    float c10 = sylva_grid_lerp(sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i0.z),
+                                sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i0.z), f.x);
+    float c01 = sylva_grid_lerp(sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i0.x, i0.y, i1.z),
+                                sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i1.x, i0.y, i1.z), f.x);
+    float c11 = sylva_grid_lerp(sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i0.x, i1.y, i1.z),
+                                sylva_grid_dense_voxel(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i1.z), f.x);
     return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
 }
 
@@ -138,15 +227,14 @@ SYLVA_FN float sylva_grid_sample_constant(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDes
         return sylva_grid_trilinear(SYLVA_PASS_BUF(grid), g, uvec3(uint(x0), uint(y0), uint(z0)),
                                     uvec3(uint(x0) + 1u, uint(y0) + 1u, uint(z0) + 1u), f);
     }
-    float c00 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0, z0),
-                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0, z0), f.x);
-    float c10 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0 + 1, z0),
-                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0 + 1, z0), f.x);
-    float c01 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0, z0 + 1),
-                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0, z0 + 1), f.x);
-    float c11 = sylva_grid_lerp(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0 + 1, z0 + 1),
-                                sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0 + 1, z0 + 1), f.x);
-    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+    return sylva_grid_blend(sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0, z0),
+                            sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0, z0),
+                            sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0 + 1, z0),
+                            sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0 + 1, z0),
+                            sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0, z0 + 1),
+                            sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0, z0 + 1),
+                            sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0, y0 + 1, z0 + 1),
+                            sylva_grid_voxel_or_border(SYLVA_PASS_BUF(grid), g, x0 + 1, y0 + 1, z0 + 1), f);
 }
 
 /// Trilinear density at world point p, edges clamped (SYLVA_BORDER_CLAMP).

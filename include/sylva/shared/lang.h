@@ -10,6 +10,8 @@
 //    is rebuilt a sample can cost the host a store-to-load stall each read; `in T` in GLSL).
 //    `SYLVA_FN_HOT` marks a small per-sample function the host compiler must inline (GCC left
 //    the octree's brick sampler a call; nothing in GLSL, where every call is inlined).
+//    `SYLVA_FN_APART` keeps a rarely taken path out of its caller's inlined body on the host
+//    (the sparse grid sampler inlined into the dense marcher cost it 20-30 % of its speed).
 //  * Buffers: a function that reads a buffer takes `SYLVA_BUF(name)` and reads with
 //    `SYLVA_LOAD(name, index)`. In C++ that is a bounds-safe view over 32-bit words; in GLSL the
 //    shader defines `uint sylva_load_<name>(uint i)` before including the shared header.
@@ -70,6 +72,7 @@ struct Words {
 #define SYLVA_END_NAMESPACE }
 #define SYLVA_FN inline
 #define SYLVA_FN_HOT [[gnu::always_inline]] inline
+#define SYLVA_FN_APART [[gnu::noinline]] inline
 #define SYLVA_OUT(T) T&
 #define SYLVA_INOUT(T) T&
 #define SYLVA_IN(T) const T&
@@ -91,6 +94,7 @@ struct Words {
 #define SYLVA_END_NAMESPACE
 #define SYLVA_FN
 #define SYLVA_FN_HOT
+#define SYLVA_FN_APART
 #define SYLVA_OUT(T) out T
 #define SYLVA_INOUT(T) inout T
 #define SYLVA_IN(T) in T

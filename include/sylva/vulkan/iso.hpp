@@ -27,7 +27,7 @@ namespace sylva::vk {
 class DeviceIso {
 public:
     DeviceIso(Context& ctx, std::span<const std::uint32_t> tree_words, const GridWords& grid)
-        : tree_(ctx, checked(ctx, tree_words.size(), "tree") * 4), grid_(ctx, checked(ctx, grid.words.size(), "grid") * 4),
+        : tree_(ctx, checked(ctx, tree_words.size(), "tree") * 4), grid_(ctx, checked(ctx, (check_iso_grid(grid), grid.words.size()), "grid") * 4),
           tree_words_(tree_words.size()), grid_words_(grid.words.size()) {
         tree_.upload(tree_words);
         grid_.upload(grid.words);

@@ -42,7 +42,7 @@ public:
     /// The ESS-DVR kernel for this tree over `grid`, built on first use and kept while the
     /// grid's constants stay the same (lavapipe compiles a pipeline on its first dispatch).
     Kernel& kernel(Context& ctx, const DeviceGrid& grid) {
-        std::array<std::uint32_t, 5> c = constants(grid);
+        std::array<std::uint32_t, 7> c = constants(grid);
         if (!kernel_ || c != kernel_constants_) {
             kernel_.reset();
             kernel_.emplace(ctx, spirv::kd_dvr, 12, 0, c);
@@ -52,10 +52,11 @@ public:
     }
 
     /// Specialization constants of kd_dvr.comp: grid shift and parts, kd shift and parts,
-    /// stack entries (for the tree's depth, stack_entries_for).
-    [[nodiscard]] std::array<std::uint32_t, 5> constants(const DeviceGrid& grid) const {
+    /// stack entries (for the tree's depth, stack_entries_for), the grid's format and border.
+    [[nodiscard]] std::array<std::uint32_t, 7> constants(const DeviceGrid& grid) const {
         auto g = grid.constants();
-        return {g[0], g[1], words_.shift, used_parts(word_count_, words_.shift), stack_entries_for(header_.max_depth, SYLVA_KD_DEPTH_CAP)};
+        return {g[0], g[1], words_.shift, used_parts(word_count_, words_.shift),
+                stack_entries_for(header_.max_depth, SYLVA_KD_DEPTH_CAP), g[2], g[3]};
     }
 
 private:
@@ -70,7 +71,7 @@ private:
     SplitWords words_;
     std::uint32_t word_count_;
     std::optional<Kernel> kernel_;
-    std::array<std::uint32_t, 5> kernel_constants_{};
+    std::array<std::uint32_t, 7> kernel_constants_{};
 };
 
 /// Renders `grid` with the marcher restricted to the leaves of `kd` on the device; same output

@@ -50,8 +50,12 @@ public:
     /// Voxel format, value range and border of the grid (sylva/render/grid_view.hpp).
     [[nodiscard]] const GridSampling& sampling() const { return sampling_; }
     [[nodiscard]] vec3 spacing() const { return spacing_; }
-    /// Specialization constants of dvr.comp: split shift, parts holding data.
-    [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {words_.shift, parts_}; }
+    /// Specialization constants of dvr.comp (sylva/shared/dvr_main.glsl): split shift, parts
+    /// holding data, voxel format, border mode (the last two fold the other samplers away).
+    [[nodiscard]] std::array<std::uint32_t, 4> constants() const {
+        return {words_.shift, parts_, static_cast<std::uint32_t>(sampling_.format),
+                static_cast<std::uint32_t>(sampling_.border.mode)};
+    }
     /// The marcher's kernel for this grid, built on first use and kept (lavapipe compiles a
     /// pipeline on its first dispatch, which costs more than a small frame).
     Kernel& kernel(Context& ctx) {
@@ -67,9 +71,7 @@ public:
 
 private:
     static std::span<const std::uint32_t> checked(const GridWords& g) {
-        g.sampling.check();
-        if (g.words.size() != g.expected_words())
-            throw Error("vk::DeviceGrid: " + std::to_string(g.words.size()) + " words do not match the dimensions");
+        g.check_words("vk::DeviceGrid");
         return g.words;
     }
     SplitWords words_;
