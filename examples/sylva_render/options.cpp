@@ -332,8 +332,8 @@ void add_volumes(CLI::App& app, Options& o) {
     g.number("--resample", o.resample, 0.1, 8, "F", "trilinear supersampling factor (Kinkelin 6.2)");
     g.converted("--spacing", o.spacing, read_vec3, "X,Y,Z", "voxel size (overrides the file's)");
     g.choice("--border", o.border, {"clamp", "zero"}, "what samples read outside the voxel centres");
-    g.choice("--grid", o.grid_format, {"native", "float32"},
-             "uint8 data rendered from 1 byte a voxel, or a float copy");
+    g.choice("--grid", o.grid_format, {"native", "sparse", "float32"},
+             "uint8 data rendered from 1 byte a voxel, from 8^3 bricks with uniform ones not stored, or a float copy");
     g.number("--lod-density", o.lod_density, 0, 1, "F", "min element density of an LoD leaf (Kinkelin Table 3)");
     g.number("--lod-stddev", o.lod_stddev, 0, 1, "F", "max std-dev of an LoD leaf's densities");
     g.number("--lod-depth", o.lod_depth, 0, 64, "N", "max LoD depth");

@@ -49,7 +49,7 @@ struct Stats {
         std::size_t data_bytes = 0;              ///< the volume's voxels as read (procedural: float32)
         std::size_t voxels = 0, grid_bytes_16bit = 0;
         /// What the renderer's grid words take (uint8: 1 byte a voxel) and its index (kd-tree
-        /// words, BIH + ranges, ...); grid_format uint8|uint16|float32, border clamp|zero.
+        /// words, BIH + ranges, ...); grid_format uint8|sparse-uint8|float32, border clamp|zero.
         std::size_t grid_bytes = 0, index_bytes = 0;
         std::string grid_format = "float32", border = "zero";
         std::size_t full_nodes = 0, full_bytes = 0, full_bytes_paper = 0;

@@ -79,7 +79,7 @@ volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s) {
 GridWords render_grid(const Options& o, const volume::DensityGrid& g, Stats& s) {
     GridBorder border = o.border == "clamp" ? GridBorder::clamp() : GridBorder{};
     s.volume.border = o.border;
-    if (o.grid_format == "native") {
+    if (o.grid_format == "native" || o.grid_format == "sparse") {
         volume::Volume bytes;
         bytes.type = volume::ScalarType::U8;
         bytes.dims = g.dims;
@@ -92,9 +92,10 @@ GridWords render_grid(const Options& o, const volume::DensityGrid& g, Stats& s) 
             bytes.bytes[i] = std::byte(static_cast<std::uint8_t>(exact ? r : 0));
         }
         if (exact) {
-            GridWords w = GridWords::native(bytes, border);
+            bool sparse = o.grid_format == "sparse";
+            GridWords w = sparse ? GridWords::sparse(bytes, border) : GridWords::native(bytes, border);
             s.volume.grid_bytes = w.grid_bytes();
-            s.volume.grid_format = "uint8";
+            s.volume.grid_format = sparse ? "sparse-uint8" : "uint8";
             return w;
         }
     }

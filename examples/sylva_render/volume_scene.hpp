@@ -34,7 +34,8 @@ void warn_if_nothing_visible(const Options& o, const Stats& s, const sylva::volu
 /// The grid words the marcher and ESS DVR read (--border, --grid): with --grid native a density
 /// grid whose every value is exactly v / 255 for a byte v (uint8 data over 0..255, not
 /// resampled) goes back to 1 byte a voxel (GridWords::native; verified value by value, else the
-/// float words); the stats get grid_bytes, grid_format and border.
+/// float words); --grid sparse the same bytes in 8^3 bricks, uniform ones held in the brick
+/// table (GridWords::sparse); the stats get grid_bytes, grid_format and border.
 sylva::GridWords render_grid(const Options& o, const sylva::volume::DensityGrid& g, Stats& s);
 
 /// Reads a transfer-function file (.json, else text control points; sylva/volume/transfer_function.hpp).
