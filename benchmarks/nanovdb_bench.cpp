@@ -4,7 +4,8 @@
 //    is every non-zero voxel dilated by one voxel (the trilinear reach), rendered with a plain
 //    march (accessor + trilinear SampleFromVoxels at every lattice point) and with HDDA empty-
 //    space skipping (TreeMarcher over leaf nodes: lattice points inside the leaves only);
-//  * sylva: the uint8 grid read natively (GridWords::native, 1 byte a voxel, border constant 0),
+//  * sylva: the uint8 grid read natively (GridWords::native, 1 byte a voxel, border constant 0;
+//    and GridWords::sparse: 8^3 bricks, the uniform ones held by their value in the brick table),
 //    a plain march and the ESS kd-tree (EssRebuilder, deep config) skipping, with the shared
 //    per-sample functions of the renderers (sylva_grid_sample, the kd iterator and leaf spans of
 //    kd_dvr.h, the lattice and compositing of dvr_common.h).
@@ -466,7 +467,7 @@ Image timed(const Rays& rays, ThreadPool& pool, std::size_t runs, double& rays_p
 }
 
 void print(const Row& r) {
-    std::printf("%-9s %-12s %9.2f Mrays/s %7.1f samples/ray %7.1f steps/ray  build cold %8.1f ms warm %8.1f ms peak %7.1f MB"
+    std::printf("%-9s %-18s %9.2f Mrays/s %7.1f samples/ray %7.1f steps/ray  build cold %8.1f ms warm %8.1f ms peak %7.1f MB"
                 "  grid %6.2f MB index %6.2f MB  vs %-12s max|diff| %.3g, identical %zu/%zu (rgba8 %zu)\n",
                 r.volume.c_str(), r.renderer.c_str(), r.rays_per_s / 1e6, r.samples_per_ray, r.steps_per_ray,
                 r.build_cold_ms, r.build_warm_ms, r.build_peak_mb, r.grid_bytes / 1e6, r.index_bytes / 1e6,
@@ -585,7 +586,49 @@ std::vector<Row> bench_volume(const Options& o, const std::string& name, const s
     r5.renderer = "sylva-kd";
     r5.reference = "sylva-plain";
     r5.diff = compare(skd, splain);
-    rows = {r1, r2, r3, r4, r5};
+
+    // sylva over the sparse grid (GridWords::sparse: 8^3 bricks, uniform ones held in the table),
+    // the same kd-tree built from the sparse words: build = packing + the ESS build.
+    heap0 = reset_peak();
+    t0 = Clock::now();
+    std::optional<GridWords> sw_cold;
+    std::vector<std::uint32_t> kd_s;
+    {
+        sw_cold.emplace(GridWords::sparse(v));
+        EssRebuilder<ThreadPool> ess_s(*sw_cold, cfg, pool);
+        kd_s = kdtree::encode(ess_s.rebuild(cls));
+    }
+    double sparse_cold = ms_since(t0);
+    double sparse_peak = double(g_heap_peak.load() - heap0) / 1e6;
+    t0 = Clock::now();
+    GridWords sw = GridWords::sparse(v);
+    double pack_warm = ms_since(t0);
+    EssRebuilder<ThreadPool> ess_s(sw, cfg, pool);
+    kd_s = kdtree::encode(ess_s.rebuild(cls));
+    t0 = Clock::now();
+    kd_s = kdtree::encode(ess_s.rebuild(cls));
+    double sparse_warm = pack_warm + ms_since(t0);
+    if (kd_s != kd) throw Error("nanovdb-bench: the kd-tree of the sparse grid differs from the dense grid's");
+    shared::Words swords{sw.words.data(), sw.words.size()};
+    shared::SylvaGridDesc sdesc = sw.desc();
+    Image ssplain = timed(rays, pool, o.runs, rps, [&](vec3 or_, vec3 d) { return sylva_plain(swords, sdesc, or_, d); });
+    Row r6 = row("sylva-plain-sparse", ssplain, rps);
+    r6.grid_bytes = sw.grid_bytes();
+    r6.reference = "sylva-plain";
+    r6.diff = compare(ssplain, splain);
+    Image sskd = timed(rays, pool, o.runs, rps, [&](vec3 or_, vec3 d) { return sylva_kd(kw, kd_count, swords, sdesc, or_, d); });
+    Row r7 = row("sylva-kd-sparse", sskd, rps);
+    r7.build_cold_ms = sparse_cold;
+    r7.build_warm_ms = sparse_warm;
+    r7.build_peak_mb = sparse_peak;
+    r7.grid_bytes = sw.grid_bytes();
+    r7.index_bytes = kd.size() * 4;
+    r7.reference = "nanovdb-hdda";
+    r7.diff = compare(sskd, nhdda);
+    Row r8 = r7;
+    r8.reference = "sylva-kd";
+    r8.diff = compare(sskd, skd);
+    rows = {r1, r2, r3, r4, r5, r6, r7, r8};
     return rows;
 }
 
