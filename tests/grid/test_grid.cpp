@@ -10,6 +10,7 @@
 
 #include <sylva/core/executor.hpp>
 #include <sylva/kdtree/encode.hpp>
+#include <sylva/render/iso.hpp>
 #include <sylva/render/kd_volume.hpp>
 #include <sylva/render/volume.hpp>
 #include <sylva/volume/read_raw.hpp>
@@ -410,6 +411,15 @@ TEST_CASE("sparse grids: corrupt or truncated brick tables and float volumes are
     volume::Volume cut = v;
     cut.bytes.pop_back();
     CHECK_THROWS_WITH(GridWords::sparse(cut), Catch::Contains("bytes do not match"));
+    // The implicit kd-tree reads float32 words: a sparse or native grid is named, not misread.
+    IsoRenderParams ip;
+    ip.width = ip.height = 4;
+    ip.camera = p.camera;
+    ThreadPool pool1(1);
+    CHECK_THROWS_WITH(render_iso_cpu(std::span<const std::uint32_t>{}, w, ip, pool1),
+                      Catch::Contains("reads float32 grid words"));
+    CHECK_THROWS_WITH(render_iso_cpu(std::span<const std::uint32_t>{}, GridWords::native(v), ip, pool1),
+                      Catch::Contains("reads float32 grid words"));
     GridWords unknown = w;
     unknown.sampling.format = static_cast<GridFormat>(5u);
     CHECK_THROWS_WITH(dvr_params(unknown, p), Catch::Contains("unknown voxel format 5"));

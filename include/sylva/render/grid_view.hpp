@@ -6,8 +6,8 @@
 //   volume::Volume v = volume::read_raw(...);                  // uint8, 256^3
 //   GridWords g = GridWords::native(v);                          // 16.8 MB of words, no float copy
 //   GridWords f = GridWords::from(volume::normalize(v));        // 67.1 MB, the same image
-//   GridWords s = GridWords::sparse(v);                          // 8^3 bricks, uniform ones not
-//                                                                // stored: 4.3 MB, the same image
+//   GridWords s = GridWords::sparse(v);                          // 8^3 bricks, uniform ones in
+//                                                                // the table: 3.7 MB, same image
 //
 // Exactness. An integer voxel of raw value r reads as clamp((r - lo) / span, 0, 1), the division
 // as written (sylva/shared/grid_sample.h), which is what volume::normalize stores for the same

@@ -27,7 +27,7 @@ namespace sylva::vk {
 class DeviceIso {
 public:
     DeviceIso(Context& ctx, std::span<const std::uint32_t> tree_words, const GridWords& grid)
-        : tree_(ctx, checked(ctx, tree_words.size(), "tree") * 4), grid_(ctx, checked(ctx, (check_iso_grid(grid), grid.words.size()), "grid") * 4),
+        : tree_(ctx, checked(ctx, tree_words.size(), "tree") * 4), grid_(ctx, checked(ctx, float32_words(grid), "grid") * 4),
           tree_words_(tree_words.size()), grid_words_(grid.words.size()) {
         tree_.upload(tree_words);
         grid_.upload(grid.words);
@@ -65,6 +65,11 @@ public:
     }
 
 private:
+    /// The word count of a float32 grid (check_iso_grid throws for other formats).
+    static std::size_t float32_words(const GridWords& g) {
+        check_iso_grid(g);
+        return g.words.size();
+    }
     static std::size_t checked(Context& ctx, std::size_t words, const char* what) {
         if (words * 4 > ctx.max_storage_buffer_range())
             throw Error(std::string("vk::DeviceIso: the ") + what + " (" + std::to_string(words * 4) +
