@@ -591,12 +591,11 @@ std::vector<Row> bench_volume(const Options& o, const std::string& name, const s
     // the same kd-tree built from the sparse words: build = packing + the ESS build.
     heap0 = reset_peak();
     t0 = Clock::now();
-    std::optional<GridWords> sw_cold;
     std::vector<std::uint32_t> kd_s;
     {
-        sw_cold.emplace(GridWords::sparse(v));
-        EssRebuilder<ThreadPool> ess_s(*sw_cold, cfg, pool);
-        kd_s = kdtree::encode(ess_s.rebuild(cls));
+        GridWords sw_cold = GridWords::sparse(v);
+        EssRebuilder<ThreadPool> ess_cold(sw_cold, cfg, pool);
+        kd_s = kdtree::encode(ess_cold.rebuild(cls));
     }
     double sparse_cold = ms_since(t0);
     double sparse_peak = double(g_heap_peak.load() - heap0) / 1e6;

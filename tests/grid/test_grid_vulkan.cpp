@@ -79,6 +79,29 @@ void check_same(const Frame& host, const Frame& gpu) {
     CHECK(alpha > 20.0);
 }
 
+/// 40x40 pixels of the grid's box, the ramp TF, shading on.
+VolumeRenderParams params_for(const GridWords& w) {
+    VolumeRenderParams p;
+    p.width = p.height = 40;
+    p.camera = Camera::framing(w.world_box(), vec3(0.5f, 0.3f, 1.0f), 34.0f).frame(40, 40);
+    p.tf = ramp_tf();
+    p.shading = true;
+    return p;
+}
+
+/// The marcher and the ESS kd-tree renderer on the device against the host (check_same);
+/// returns the host marcher's frame.
+Frame check_marcher_and_kd(vk::Context& ctx, vk::DeviceGrid& grid, const GridWords& w, const VolumeRenderParams& p,
+                           ThreadPool& pool) {
+    Frame host = render_dvr_cpu(w, p, pool);
+    check_same(host, vk::render_dvr_vulkan(ctx, grid, p));
+    EssRebuilder<ThreadPool> ess(w, kdtree::Config::deep(), pool);
+    std::vector<std::uint32_t> kd = kdtree::encode(ess.rebuild(p.tf));
+    vk::DeviceKdTree dkd(ctx, kd);
+    check_same(render_kd_dvr_cpu(w, kd, p, pool), vk::render_kd_dvr_vulkan(ctx, grid, dkd, p));
+    return host;
+}
+
 }  // namespace
 
 TEST_CASE("native grids and border modes on Vulkan match the host", "[parity][vulkan]") {
@@ -91,18 +114,7 @@ TEST_CASE("native grids and border modes on Vulkan match the host", "[parity][vu
             INFO(volume::scalar_name(type) << ", border " << int(b.mode) << " " << b.value);
             GridWords w = GridWords::native(v, b);
             vk::DeviceGrid grid(ctx, w);
-            VolumeRenderParams p;
-            p.width = p.height = 40;
-            p.camera = Camera::framing(w.world_box(), vec3(0.5f, 0.3f, 1.0f), 34.0f).frame(40, 40);
-            p.tf = ramp_tf();
-            p.shading = true;
-            Frame host = render_dvr_cpu(w, p, pool);
-            check_same(host, vk::render_dvr_vulkan(ctx, grid, p));
-            EssRebuilder<ThreadPool> ess(w, kdtree::Config::deep(), pool);
-            std::vector<std::uint32_t> kd = kdtree::encode(ess.rebuild(p.tf));
-            vk::DeviceKdTree dkd(ctx, kd);
-            Frame kd_host = render_kd_dvr_cpu(w, kd, p, pool);
-            check_same(kd_host, vk::render_kd_dvr_vulkan(ctx, grid, dkd, p));
+            check_marcher_and_kd(ctx, grid, w, params_for(w), pool);
         }
     }
 }
@@ -128,18 +140,8 @@ TEST_CASE("sparse grids on Vulkan match the host and the dense grid, also split 
                                          << w.words.size() << " words");
         vk::DeviceGrid grid(ctx, w, shift);
         if (c.split) REQUIRE(grid.constants()[1] >= 3u);
-        VolumeRenderParams p;
-        p.width = p.height = 40;
-        p.camera = Camera::framing(w.world_box(), vec3(0.5f, 0.3f, 1.0f), 34.0f).frame(40, 40);
-        p.tf = ramp_tf();
-        p.shading = true;
-        Frame host = render_dvr_cpu(w, p, pool);
+        VolumeRenderParams p = params_for(w);
+        Frame host = check_marcher_and_kd(ctx, grid, w, p, pool);
         CHECK(compare_frames(host, render_dvr_cpu(dense, p, pool)).max_abs == 0.0);
-        check_same(host, vk::render_dvr_vulkan(ctx, grid, p));
-        EssRebuilder<ThreadPool> ess(w, kdtree::Config::deep(), pool);
-        std::vector<std::uint32_t> kd = kdtree::encode(ess.rebuild(p.tf));
-        vk::DeviceKdTree dkd(ctx, kd);
-        Frame kd_host = render_kd_dvr_cpu(w, kd, p, pool);
-        check_same(kd_host, vk::render_kd_dvr_vulkan(ctx, grid, dkd, p));
     }
 }
