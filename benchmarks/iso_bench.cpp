@@ -16,6 +16,9 @@
 //     and the index touched for the first time), frame_ms the median of the --runs frames after.
 //     A machine started minutes ago pays more for first touches than a process can show (its
 //     hypervisor maps pages on first use), so the cold figures here are a lower bound;
+//   * the 8-bit volumes also read natively (GridWords::native, 1 byte a sample, normalised on
+//     the fly to the same densities; rows *-u8grid: the default tree, its packets, the DDA), with
+//     grid_bytes of the float32 copy and of the uint8 grid;
 //   * the images of the tree, its packets and the DDA must be identical (checked every case).
 // Peers on the same camera, rays, size and isovalue, on the same thread pool (rows as
 // render_iso_cpu splits them):
@@ -145,15 +148,23 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
     return app;
 }
 
-/// The density grid of a case; nullopt (with a message) when a data file is missing.
-std::optional<volume::DensityGrid> grid_of(const std::string& c) {
+/// A case's density grid, and for a file its uint8 volume (rendered natively too).
+struct CaseData {
+    volume::DensityGrid grid;
+    std::optional<volume::Volume> raw;
+};
+
+/// The data of a case; nullopt (with a message) when a data file is missing.
+std::optional<CaseData> grid_of(const std::string& c) {
     if (c.rfind("ml", 0) == 0) {
         std::uint32_t n = static_cast<std::uint32_t>(std::stoul(c.substr(2)));
-        return volume::marschner_lobb({n, n, n});
+        return CaseData{volume::marschner_lobb({n, n, n}), std::nullopt};
     }
     std::string path = std::string(SYLVA_ISO_BENCH_DATA) + "/" + c + "_256x256x256_uint8.raw";
     try {
-        return volume::normalize(volume::read_volume(path));
+        volume::Volume v = volume::read_volume(path);
+        volume::DensityGrid g = volume::normalize(v);
+        return CaseData{std::move(g), std::move(v)};
     } catch (const Error& e) {
         std::cerr << "sylva-iso-bench: " << e.what() << " (case left out)\n";
         return std::nullopt;
@@ -492,8 +503,9 @@ void check_same(const Frame& a, const Frame& b, const std::string& c, const std:
 }
 
 void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vector<Record>& out) {
-    std::optional<volume::DensityGrid> g = grid_of(c);
-    if (!g) return;
+    std::optional<CaseData> data = grid_of(c);
+    if (!data) return;
+    const volume::DensityGrid* g = &data->grid;
     std::size_t data_bytes = c.rfind("ml", 0) == 0 ? g->values.size() * 2 : g->values.size();  // ML: 16-bit, as Table III
     GridWords gw = GridWords::from(*g);
     IsoRenderParams p;
@@ -525,6 +537,17 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     cs.push_back(iso_contender(alt + "-packet", words[1], gw, p, IsoWalker::Tree, pool, true));
     cs.push_back(iso_contender(names[2], words[2], gw, p, IsoWalker::Tree, pool));
     cs.push_back(iso_contender("dda", words[2], gw, p, IsoWalker::Dda, pool));
+    // The 8-bit volumes read natively (GridWords::native: 1 byte a sample, normalised on the fly,
+    // the same densities): the default tree, its packets and the DDA again.
+    std::optional<GridWords> native;
+    if (data->raw) {
+        native = GridWords::native(*data->raw);
+        out.push_back({c, "grid-float32", "grid_bytes", double(gw.grid_bytes()), "bytes"});
+        out.push_back({c, "grid-uint8", "grid_bytes", double(native->grid_bytes()), "bytes"});
+        cs.push_back(iso_contender(names[0] + "-u8grid", words[0], *native, p, IsoWalker::Tree, pool));
+        cs.push_back(iso_contender("implicit-kd-packet-u8grid", words[0], *native, p, IsoWalker::Tree, pool, true));
+        cs.push_back(iso_contender("dda-u8grid", words[2], *native, p, IsoWalker::Dda, pool));
+    }
     const std::size_t trees = cs.size();
     std::unique_ptr<BihIsoIndex> bih_store;
 #ifdef SYLVA_ISO_BENCH_NANOVDB

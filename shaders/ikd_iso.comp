@@ -3,7 +3,7 @@
 // (sylva/shared/iso_render.h; Wald et al.).
 //
 // Bindings: 0 the encoded tree (sylva/shared/ikd_layout.h); 1 the grid (float bits of
-// normalised densities); 2 the parameter block (SYLVA_ISO_PARAM_WORDS words); 3 output, 8 words
+// normalised densities, or uint8 / uint16 samples packed in words: parameter words 30-32); 2 the parameter block (SYLVA_ISO_PARAM_WORDS words); 3 output, 8 words
 // per pixel: premultiplied R, G, B, alpha (float bits), traversal steps, candidate cells
 // intersected, hits, final status; 4 the caller's rays, 6 words a pixel (sylva/shared/rays.h;
 // read only when the ray source word 29 is SYLVA_RAYS_BUFFER, else a dummy).
@@ -33,7 +33,7 @@ void main() {
     SylvaIsoParams p = sylva_iso_read_params(0u);
     uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= p.width || px.y >= p.height) return;
-    SylvaIkdHeader hdr = sylva_ikd_read_header(0u, p.tree_words, p.grid_words);
+    SylvaIkdHeader hdr = sylva_iso_read_header(0u, p);
     SylvaIsoRay r = (p.ray_source == SYLVA_RAYS_BUFFER)
                         ? sylva_iso_trace_ray(0u, 0u, p, hdr, sylva_rays_load(0u, px.x, px.y, p.width))
                         : sylva_iso_pixel(0u, 0u, p, hdr, px.x, px.y);

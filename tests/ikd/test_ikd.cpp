@@ -249,6 +249,52 @@ TEST_CASE("ikd node words are tested in integer codes exactly as their float ran
     CHECK(wrong_hi == 0);
 }
 
+TEST_CASE("ikd raw-value bounds of uint8 / uint16 grids decide cells exactly as their densities", "[ikd][native]") {
+    // For a grid read natively, sylva_ikd_cell_holds tests a cell's raw min / max against
+    // sylva_ikd_grid_codes: q < at_most must equal density(q) <= v and q >= below density(q) >= v,
+    // for every raw value, over value ranges of the type, narrower, wider and shifted.
+    struct Range {
+        std::uint32_t format, top;
+        float lo, span;
+    };
+    std::vector<Range> ranges{{SYLVA_GRID_U8, 255u, 0.0f, 255.0f},       {SYLVA_GRID_U8, 255u, 17.0f, 100.0f},
+                              {SYLVA_GRID_U8, 255u, -40.0f, 600.0f},     {SYLVA_GRID_U16, 65535u, 0.0f, 65535.0f},
+                              {SYLVA_GRID_U16, 65535u, 9000.0f, 42000.0f}, {SYLVA_GRID_U16, 65535u, 1e8f, 3.0f},
+                              {SYLVA_GRID_U16, 65535u, -1e8f, 1e8f}};
+    std::mt19937 rng(12);
+    std::size_t wrong = 0, checked = 0;
+    for (const Range& r : ranges) {
+        shared::SylvaIkdHeader h{};
+        h.grid_format = r.format;
+        h.value_lo = r.lo;
+        h.value_span = r.span;
+        std::vector<float> isos{0.0f, 1.0f, -1.0f, 2.0f, std::numeric_limits<float>::quiet_NaN(), 0.5f};
+        std::uniform_int_distribution<std::uint32_t> raw(0, r.top);
+        for (int i = 0; i < 40; ++i) {
+            float d = shared::sylva_grid_normalise(raw(rng), r.lo, r.span);
+            isos.insert(isos.end(), {d, std::nextafter(d, 0.0f), std::nextafter(d, 1.0f)});
+        }
+        for (float v : isos) {
+            glm::uvec4 at_most, below;
+            shared::sylva_ikd_grid_codes(h, vec4(v, 0.5f, 0.5f, 0.5f), 1u, at_most, below);
+            CHECK(at_most.y == 0u);
+            for (std::uint32_t q = 0; q <= r.top; ++q) {
+                float d = shared::sylva_grid_normalise(q, r.lo, r.span);
+                wrong += (q < at_most.x) != (d <= v);
+                wrong += (q >= below.x) != (d >= v);
+                ++checked;
+            }
+        }
+    }
+    CHECK(wrong == 0);
+    CHECK(checked > 1000000);
+    shared::SylvaIkdHeader f32{};
+    f32.grid_format = SYLVA_GRID_F32;
+    glm::uvec4 at_most(7u), below(7u);
+    shared::sylva_ikd_grid_codes(f32, vec4(0.5f), 4u, at_most, below);
+    CHECK(at_most == glm::uvec4(0u));  // a float32 grid tests its densities directly
+}
+
 TEST_CASE("ikd iterator: the candidate cells of brute force, front to back, same intervals", "[ikd]") {
     std::mt19937 rng(42);
     std::uniform_real_distribution<float> iso(0.15f, 0.75f);

@@ -1,5 +1,6 @@
 // Exact isosurface rendering (sylva/render/iso.hpp): the implicit kd-tree and the reference cell
-// DDA give identical images hit for hit, hits against closed forms, and the bad cases.
+// DDA give identical images hit for hit, hits against closed forms, uint8 / uint16 grids read
+// natively equal to their float32 copy, and the bad cases.
 #include <catch2/catch.hpp>
 
 #include <array>
@@ -7,6 +8,8 @@
 #include <random>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <vector>
 
 #include <sylva/core/executor.hpp>
@@ -14,6 +17,8 @@
 #include <sylva/ikd/encode.hpp>
 #include <sylva/render/iso.hpp>
 #include <sylva/volume/procedural.hpp>
+
+#include "quantised.hpp"
 
 using namespace sylva;
 using Catch::Matchers::Contains;
@@ -285,4 +290,85 @@ TEST_CASE("ikd packets: each lane's cells and interval bits are its single ray's
     CHECK(lanes_checked > 15000);
     CHECK(parallel_lanes > 5000);
     CHECK(cells_seen > 10000);
+}
+
+TEST_CASE("iso rendering: uint8 and uint16 grids read natively give the float32 grid's image, hit for hit",
+          "[ikd][iso][native]") {
+    ThreadPool pool(2);
+    volume::DensityGrid field = volume::marschner_lobb({33, 20, 27});
+    struct Case {
+        volume::ScalarType type;
+        float lo, hi;
+    };
+    for (Case c : {Case{volume::ScalarType::U8, 0.0f, 255.0f}, Case{volume::ScalarType::U16, 0.0f, 65535.0f},
+                   Case{volume::ScalarType::U16, 9000.0f, 51000.0f}}) {
+        volume::Volume v = test::quantised(field, c.type, c.lo, c.hi);
+        volume::DensityGrid g = volume::normalize(v);  // what the tree is built from
+        std::vector<std::uint32_t> words = ikd::encode(ikd::build(g, ikd::Config{4}));
+        GridWords f32 = GridWords::from(g), native = GridWords::native(v);
+        INFO("format " << static_cast<int>(native.sampling.format) << " range " << c.lo << ".." << c.hi);
+        REQUIRE(native.grid_bytes() == g.values.size() * volume::scalar_bytes(c.type));
+        REQUIRE(native.words.size() * 4 < f32.words.size() * 4 / (c.type == volume::ScalarType::U8 ? 3 : 1.9));
+        Scene s(g);
+        IsoRenderParams p = params_for(s, {{0.3f, vec4(0.2f, 0.6f, 0.9f, 0.35f)}, {0.6f, vec4(0.9f, 0.4f, 0.2f, 0.5f)},
+                                           {0.8f, vec4(1.0f)}});
+        IsoCounters nf, nn;
+        Frame want = render_iso_cpu(words, f32, p, pool, &nf);
+        Frame got = render_iso_cpu(words, native, p, pool, &nn);
+        CHECK(bits_of(got) == bits_of(want));
+        CHECK(nn.cells == nf.cells);
+        CHECK(nn.hits == nf.hits);
+        CHECK(nn.steps == nf.steps);
+        CHECK(nn.errors == 0);
+        CHECK(nf.hits > 1000);
+        IsoCounters np;
+        CHECK(bits_of(render_iso_cpu_packets(words, native, p, pool, &np)) == bits_of(want));
+        CHECK(np.cells == nf.cells);
+        p.walker = IsoWalker::Dda;
+        IsoCounters nd;
+        CHECK(bits_of(render_iso_cpu(words, native, p, pool, &nd)) == bits_of(want));
+        CHECK(nd.cells == nf.cells);
+    }
+}
+
+TEST_CASE("iso rendering: the header reader checks a native grid's format, range and word count", "[ikd][iso][native][errors]") {
+    volume::DensityGrid field = volume::marschner_lobb({9, 6, 7});  // 378 samples: 94.5 uint8 words
+    volume::Volume v = test::quantised(field, volume::ScalarType::U8, 0.0f, 255.0f);
+    std::vector<std::uint32_t> words = ikd::encode(ikd::build(volume::normalize(v)));
+    GridWords native = GridWords::native(v);
+    REQUIRE(native.words.size() == 95);
+    shared::Words tw{words.data(), words.size()};
+    auto wc = static_cast<std::uint32_t>(words.size());
+    auto valid = [&](std::uint32_t grid_words, std::uint32_t format, float lo, float span) {
+        return shared::sylva_ikd_read_header_grid(tw, wc, grid_words, format, lo, span).valid;
+    };
+    CHECK(valid(95, SYLVA_GRID_U8, 0.0f, 255.0f) == 1u);
+    CHECK(valid(189, SYLVA_GRID_U16, 0.0f, 255.0f) == 1u);
+    CHECK(valid(378, SYLVA_GRID_F32, 0.0f, 1.0f) == 1u);
+    CHECK(valid(94, SYLVA_GRID_U8, 0.0f, 255.0f) == 0u);   // truncated
+    CHECK(valid(96, SYLVA_GRID_U8, 0.0f, 255.0f) == 0u);   // too long
+    CHECK(valid(378, SYLVA_GRID_U8, 0.0f, 255.0f) == 0u);  // float32 words as uint8
+    CHECK(valid(95, SYLVA_GRID_SPARSE_U8, 0.0f, 255.0f) == 0u);
+    CHECK(valid(95, 7u, 0.0f, 255.0f) == 0u);
+    CHECK(valid(95, SYLVA_GRID_U8, 0.0f, 0.0f) == 0u);  // empty range
+    CHECK(valid(95, SYLVA_GRID_U8, 0.0f, -1.0f) == 0u);
+    CHECK(valid(95, SYLVA_GRID_U8, std::nanf(""), 255.0f) == 0u);
+    CHECK(valid(95, SYLVA_GRID_U8, 0.0f, std::numeric_limits<float>::infinity()) == 0u);
+    // The renderer refuses them with a message before any ray.
+    ThreadPool pool(1);
+    IsoRenderParams p;
+    p.width = p.height = 8;
+    p.camera = Camera::framing(field.world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(8, 8);
+    GridWords cut = native;
+    cut.words.pop_back();
+    CHECK_THROWS_WITH(render_iso_cpu(words, cut, p, pool), Contains("GridWords holds 94 words") && Contains("95 expected"));
+    GridWords empty_range = native;
+    empty_range.sampling.value_span = 0.0f;
+    CHECK_THROWS_WITH(render_iso_cpu(words, empty_range, p, pool), Contains("value range"));
+    // A grid of other dims (the float32 grid's word count for another tree): every ray reports
+    // the refused header.
+    volume::Volume other = test::quantised(volume::marschner_lobb({9, 6, 8}), volume::ScalarType::U8, 0.0f, 255.0f);
+    IsoCounters n;
+    render_iso_cpu(words, GridWords::native(other), p, pool, &n);
+    CHECK(n.errors == 64);
 }

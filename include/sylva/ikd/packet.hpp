@@ -68,16 +68,19 @@ struct PacketCell {
     vec4 corners_lo{0.0f}, corners_hi{0.0f};
 };
 
-/// The isovalues as node-word code bounds (shared::sylva_ikd_iso_codes): a renderer computes
-/// them once a frame and hands them to every packet.
+/// The isovalues as node-word code bounds (shared::sylva_ikd_iso_codes) and as bounds on the
+/// raw values of an integer grid (shared::sylva_ikd_grid_codes): a renderer computes them once
+/// a frame and hands them to every packet.
 struct IsoCodes {
     glm::u32vec4 at_most{0u}, below{0u};
+    glm::u32vec4 raw_at_most{0u}, raw_below{0u};
 };
 
-/// The code bounds of the first `iso_count` (at most 4) of `isos`.
-inline IsoCodes iso_codes(vec4 isos, std::uint32_t iso_count) {
+/// The code bounds of the first `iso_count` (at most 4) of `isos` for the grid `hdr` describes.
+inline IsoCodes iso_codes(vec4 isos, std::uint32_t iso_count, const shared::SylvaIkdHeader& hdr) {
     IsoCodes c;
     shared::sylva_ikd_iso_codes(isos, std::min(iso_count, 4u), c.at_most, c.below);
+    shared::sylva_ikd_grid_codes(hdr, isos, std::min(iso_count, 4u), c.raw_at_most, c.raw_below);
     return c;
 }
 
@@ -158,21 +161,23 @@ public:
                      shared::sylva_ikd_read_header(shared::Words{words.data(), words.size()},
                                                    static_cast<std::uint32_t>(words.size()),
                                                    static_cast<std::uint32_t>(grid.size())),
-                     p, isos, iso_count, iso_codes(isos, iso_count)) {}
+                     p, isos, iso_count) {}
 
-    /// The same with the header sylva_ikd_read_header gave for these buffers (read once per
+    /// The same with the header sylva_ikd_read_header (float32 grid) or
+    /// sylva_ikd_read_header_grid (uint8 / uint16 grid) gave for these buffers (read once per
     /// frame by a renderer).
     PacketIter(std::span<const std::uint32_t> words, std::span<const std::uint32_t> grid,
                const shared::SylvaIkdHeader& hdr, const RayPacket& p, vec4 isos, std::uint32_t iso_count)
-        : PacketIter(words, grid, hdr, p, isos, iso_count, iso_codes(isos, iso_count)) {}
+        : PacketIter(words, grid, hdr, p, isos, iso_count, iso_codes(isos, iso_count, hdr)) {}
 
-    /// ... and the isovalues' code bounds iso_codes(isos, iso_count), also computed once per
-    /// frame by a renderer.
+    /// ... and the isovalues' code bounds iso_codes(isos, iso_count, hdr), also computed once
+    /// per frame by a renderer.
     PacketIter(std::span<const std::uint32_t> words, std::span<const std::uint32_t> grid,
                const shared::SylvaIkdHeader& hdr, const RayPacket& p, vec4 isos, std::uint32_t iso_count,
                const IsoCodes& codes)
         : words_{words.data(), words.size()}, grid_{grid.data(), grid.size()}, hdr_(hdr), isos_(isos),
-          iso_count_(iso_count), at_most_(codes.at_most), below_(codes.below) {
+          iso_count_(iso_count), at_most_(codes.at_most), below_(codes.below), raw_at_most_(codes.raw_at_most),
+          raw_below_(codes.raw_below) {
         if (!same_signs(p)) throw Error("ikd::PacketIter: the rays' direction signs differ");
         if (hdr_.valid == 0u) {
             status_ = SYLVA_ITER_ERROR;
@@ -259,8 +264,9 @@ private:
 
     /// Reports n's cell when its corners hold an isovalue.
     bool cell(const Node& n, PacketCell& out) {
-        shared::sylva_ikd_corners(grid_, hdr_.cells, n.node, out.corners_lo, out.corners_hi);
-        if (!shared::sylva_ikd_corners_hold(out.corners_lo, out.corners_hi, isos_, iso_count_)) return false;
+        if (!shared::sylva_ikd_cell_holds(grid_, hdr_, n.node, isos_, iso_count_, raw_at_most_, raw_below_,
+                                          out.corners_lo, out.corners_hi))
+            return false;
         out.cell = n.node;
         out.mask = n.mask;
         alignas(16) float t0[kPacketLanes], t1[kPacketLanes];
@@ -357,6 +363,7 @@ private:
     vec4 isos_;
     std::uint32_t iso_count_;
     glm::u32vec4 at_most_{0u}, below_{0u};  ///< the isovalues as node-word code bounds
+    glm::u32vec4 raw_at_most_{0u}, raw_below_{0u};  ///< ... and as raw-value bounds of an integer grid
     Lanes lanes_;
     alignas(16) std::array<float, kPacketLanes> limit_{};
     glm::u32vec3 lower_first_{1u};

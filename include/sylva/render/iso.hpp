@@ -8,6 +8,7 @@
 //   IsoRenderParams p;  p.camera = ...;  p.isos = {{0.5f, vec4(0.9f, 0.8f, 0.7f, 1.0f)}};
 //   IsoCounters n;
 //   Frame f = render_iso_cpu(words, GridWords::from(grid), p, pool, &n);
+//   // or GridWords::native(volume): a uint8 / uint16 volume read at 1 / 2 bytes a sample
 #ifndef SYLVA_RENDER_ISO_HPP
 #define SYLVA_RENDER_ISO_HPP
 
@@ -68,25 +69,32 @@ struct IsoCounters {
     std::uint64_t lane_steps = 0;
 };
 
-/// The shared parameter block of `p` for a tree of `tree_words` and a grid of `grid_words`
-/// words (layout: sylva/shared/iso_render.h). Throws sylva::Error for 0 or more than 4
-/// surfaces, a value or colour that is not finite, an empty image.
-/// The implicit kd-tree's iterators read float32 grid words (GridWords::from): throws
-/// sylva::Error naming the format otherwise (a native or sparse grid would be refused by the
-/// header check with a less helpful message).
+/// The implicit kd-tree's walkers read dense grids (GridWords::from, or GridWords::native of a
+/// uint8 / uint16 volume: 1 / 2 bytes a sample, normalised on the fly exactly as
+/// volume::normalize does, so the same hits). Throws sylva::Error naming the format of a sparse
+/// grid, and for a bad range or word count.
 inline void check_iso_grid(const GridWords& grid) {
-    if (grid.sampling.format != GridFormat::F32)
-        throw Error("render: the implicit kd-tree reads float32 grid words (GridWords::from), not format " +
-                    std::to_string(static_cast<std::uint32_t>(grid.sampling.format)));
+    if (is_sparse(grid.sampling.format))
+        throw Error("render: the implicit kd-tree reads dense grids (float32, uint8 or uint16 words), not the sparse "
+                    "format " + std::to_string(static_cast<std::uint32_t>(grid.sampling.format)));
+    grid.check_words("render");
 }
 
-inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size_t tree_words, std::size_t grid_words) {
+/// The shared parameter block of `p` for a tree of `tree_words` and a grid of `grid_words`
+/// words in format and range `sampling` (layout: sylva/shared/iso_render.h). Throws
+/// sylva::Error for 0 or more than 4 surfaces, a value or colour that is not finite, an empty
+/// image, a sparse or unknown format.
+inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size_t tree_words, std::size_t grid_words,
+                                             const GridSampling& sampling = {}) {
     if (p.isos.empty() || p.isos.size() > 4)
         throw Error("render: " + std::to_string(p.isos.size()) + " isovalues; 1 to 4 can be rendered at once");
     if (p.width == 0 || p.height == 0) throw Error("render: empty image");
     for (const vec3& v : {p.camera.eye, p.camera.w, p.camera.u, p.camera.v})
         if (!all_finite(v)) throw Error("render: the camera holds a non-finite number");
     check_rays(p.rays, p.width, p.height);
+    sampling.check();
+    if (is_sparse(sampling.format))
+        throw Error("render: the implicit kd-tree reads dense grids (float32, uint8 or uint16 words)");
     std::vector<std::uint32_t> w(SYLVA_ISO_PARAM_WORDS, 0u);
     std::array<float, 12> cam = p.camera.floats();
     for (int i = 0; i < 12; ++i) w[i] = std::bit_cast<std::uint32_t>(cam[i]);
@@ -108,6 +116,9 @@ inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size
     w[27] = static_cast<std::uint32_t>(tree_words);
     w[28] = static_cast<std::uint32_t>(grid_words);
     w[29] = static_cast<std::uint32_t>(p.rays.source);
+    w[30] = static_cast<std::uint32_t>(sampling.format);
+    w[31] = std::bit_cast<std::uint32_t>(sampling.format == GridFormat::F32 ? 0.0f : sampling.value_lo);
+    w[32] = std::bit_cast<std::uint32_t>(sampling.format == GridFormat::F32 ? 1.0f : sampling.value_span);
     return w;
 }
 
@@ -161,17 +172,18 @@ inline void iso_store(const shared::SylvaIsoRay& r, std::size_t i, Frame& f, Iso
 }  // namespace detail
 
 /// Renders the isosurfaces of an encoded implicit kd-tree (ikd::encode) over `grid` (the
-/// GridWords of the grid it was built from) on the host. Frame::steps holds each pixel's
+/// GridWords of the grid it was built from: GridWords::from, or GridWords::native of the
+/// uint8 / uint16 volume that grid was normalised from) on the host. Frame::steps holds each pixel's
 /// traversal steps (0xFFFFFFFF where the encoding was refused); `counters`, when given, gets
 /// the totals. Throws sylva::Error for bad parameters.
 template <Executor X>
 Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p, X& exec,
                      IsoCounters* counters = nullptr) {
     check_iso_grid(grid);
-    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size());
+    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling);
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
-    shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words);  // once a frame
+    shared::SylvaIkdHeader hdr = shared::sylva_iso_read_header(tw, sp);  // once a frame
     Frame f = detail::iso_frame(p);
     detail::IsoTotals totals;
     auto start = std::chrono::steady_clock::now();
@@ -262,11 +274,11 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
                              X& exec, IsoCounters* counters = nullptr) {
     if (p.walker != IsoWalker::Tree) throw Error("render: packets traverse the implicit kd-tree, not the DDA");
     check_iso_grid(grid);
-    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size());
+    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling);
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
-    shared::SylvaIkdHeader hdr = shared::sylva_ikd_read_header(tw, sp.tree_words, sp.grid_words);  // once a frame
-    ikd::IsoCodes codes = ikd::iso_codes(sp.isos, sp.iso_count);                                   // once a frame
+    shared::SylvaIkdHeader hdr = shared::sylva_iso_read_header(tw, sp);  // once a frame
+    ikd::IsoCodes codes = ikd::iso_codes(sp.isos, sp.iso_count, hdr);                              // once a frame
     Frame f = detail::iso_frame(p);
     detail::IsoTotals totals;
     auto start = std::chrono::steady_clock::now();

@@ -41,6 +41,8 @@ struct SylvaDdaIter {
     uint steps;  ///< cells visited so far
     uint max_steps;
     uint status;
+    uvec4 raw_at_most;  ///< the isovalues as bounds on an integer grid's raw values (sylva_ikd_grid_codes)
+    uvec4 raw_below;
 };
 
 /// t of the plane `coord` along one axis (+inf when the ray is parallel to it).
@@ -54,6 +56,7 @@ SYLVA_FN void sylva_dda_begin(SYLVA_OUT(SylvaDdaIter) it, SylvaIkdHeader hdr, ve
     it.hdr = hdr;
     it.isos = isos;
     it.iso_count = (iso_count < 4u) ? iso_count : 4u;
+    sylva_ikd_grid_codes(hdr, isos, it.iso_count, it.raw_at_most, it.raw_below);
     it.t_min = sylva_canon(t_min);  // as sylva_ikd_begin: no signed zero among the bounds
     it.t_max = sylva_canon(t_max);
     it.t_limit = t_max;
@@ -125,7 +128,7 @@ SYLVA_FN bool sylva_dda_advance(SYLVA_INOUT(SylvaDdaIter) it) {
 }
 
 /// Advances to the next candidate cell (as sylva_ikd_next).
-SYLVA_FN bool sylva_dda_next(SYLVA_INOUT(SylvaDdaIter) it, SYLVA_BUF(grid), SYLVA_OUT(uvec3) cell, SYLVA_OUT(float) t0,
+SYLVA_FN_HOT bool sylva_dda_next(SYLVA_INOUT(SylvaDdaIter) it, SYLVA_BUF(grid), SYLVA_OUT(uvec3) cell, SYLVA_OUT(float) t0,
                              SYLVA_OUT(float) t1) {
     cell = uvec3(0u, 0u, 0u);
     t0 = 0.0f;
@@ -142,8 +145,8 @@ SYLVA_FN bool sylva_dda_next(SYLVA_INOUT(SylvaDdaIter) it, SYLVA_BUF(grid), SYLV
         bool inside = t.x <= t.y && t.x <= it.t_limit;
         bool candidate = false;
         if (inside) {  // the tree iterator's corner loads and range test, for the same cell
-            sylva_ikd_corners(SYLVA_PASS_BUF(grid), it.hdr.cells, c, it.corners_lo, it.corners_hi);
-            candidate = sylva_ikd_corners_hold(it.corners_lo, it.corners_hi, it.isos, it.iso_count);
+            candidate = sylva_ikd_cell_holds(SYLVA_PASS_BUF(grid), it.hdr, c, it.isos, it.iso_count, it.raw_at_most,
+                                             it.raw_below, it.corners_lo, it.corners_hi);
         }
         if (!sylva_dda_advance(it)) it.status = SYLVA_ITER_DONE;
         if (candidate) {

@@ -87,10 +87,18 @@ SYLVA_FN float sylva_grid_lerp(float a, float b, float f) {
     return r;
 }
 
+/// Normalised density of raw integer value `raw` in the value range (lo, span): clamp((raw - lo)
+/// / span, 0, 1), the division as written (the one definition every integer-grid reader uses).
+/// Non-decreasing in raw for span > 0 (each rounding is monotonic), so the min / max of raw
+/// values maps to the min / max of their densities.
+SYLVA_FN_HOT float sylva_grid_normalise(uint raw, float lo, float span) {
+    SYLVA_PRECISE float d = (float(raw) - lo) / span;
+    return sylva_grid_clamp(d, 0.0f, 1.0f);
+}
+
 /// Normalised density of raw integer value `raw` in g's value range.
 SYLVA_FN_HOT float sylva_grid_raw_density(SYLVA_IN(SylvaGridDesc) g, uint raw) {
-    SYLVA_PRECISE float d = (float(raw) - g.value_lo) / g.value_span;
-    return sylva_grid_clamp(d, 0.0f, 1.0f);
+    return sylva_grid_normalise(raw, g.value_lo, g.value_span);
 }
 
 /// Normalised density of voxel index i (< the voxel count) of a dense grid (SYLVA_GRID_F32, U8

@@ -12,6 +12,8 @@
 //   while (sylva_ikd_next(it, words, grid, cell, t0, t1)) {
 //       ... it.corners_lo / it.corners_hi are the cell's eight corner densities ...
 //   }
+// sylva_ikd_init reads a float32 grid; for a uint8 / uint16 grid give sylva_ikd_begin the header
+// of sylva_ikd_read_header_grid (format and value range).
 //
 // Order and intervals are those of sylva/shared/kd_iter.h: children are visited near side first
 // (by the sign of the direction along the split axis), boxes are closed, a ray lying in a split
@@ -61,6 +63,8 @@ struct SylvaIkdIter {
     uint iso_count;
     uvec4 iso_at_most;  ///< the isovalues as node-word code bounds (sylva_ikd_iso_codes)
     uvec4 iso_below;
+    uvec4 raw_at_most;  ///< the isovalues as bounds on an integer grid's raw values (sylva_ikd_grid_codes)
+    uvec4 raw_below;
     float t_limit;  ///< subtrees entered after this are pruned (sylva_ikd_clip)
     uvec3 node;     ///< first cell of the node to visit next
     uint level;     ///< its level; SYLVA_IKD_NO_NODE: pop the stack
@@ -93,27 +97,50 @@ SYLVA_FN bool sylva_ikd_holds(vec4 isos, uint count, float lo, float hi) {
     return found;
 }
 
-/// Number of unorm16 codes q whose density float(q) / 65535 (sylva_ikd_node_range) is <= v:
-/// 0 .. 65536, 0 for a NaN v. That density grows with q, so the codes <= v are 0 .. count - 1.
-SYLVA_FN uint sylva_ikd_codes_at_most(float v) {
-    if (!(v >= 0.0f)) return 0u;  // NaN or below code 0's density
-    if (v >= 1.0f) return 65536u;
-    uint q = uint(v * 65535.0f);  // within a code or two of the answer; the loops settle it
-    while (q > 0u && float(q) / 65535.0f > v) q = q - 1u;
-    while (q < 65535u && float(q + 1u) / 65535.0f <= v) q = q + 1u;
-    return (float(q) / 65535.0f <= v) ? q + 1u : q;
+/// Number of raw values q in [0, top] whose density sylva_grid_normalise(q, lo, span) is <= v:
+/// 0 .. top + 1, 0 for a NaN v. That density grows with q, so the values <= v are 0 .. count - 1.
+SYLVA_FN uint sylva_ikd_raw_at_most(float v, float lo, float span, uint top) {
+    if (!(v >= sylva_grid_normalise(0u, lo, span))) return 0u;  // NaN or below value 0's density
+    if (v >= sylva_grid_normalise(top, lo, span)) return top + 1u;
+    float g = v * span + lo;  // within a value or two of the answer; the loops settle it
+    uint q = (g > 0.0f) ? ((g < float(top)) ? uint(g) : top) : 0u;
+    while (q > 0u && sylva_grid_normalise(q, lo, span) > v) q = q - 1u;
+    while (q < top && sylva_grid_normalise(q + 1u, lo, span) <= v) q = q + 1u;
+    return (sylva_grid_normalise(q, lo, span) <= v) ? q + 1u : q;
 }
+
+/// Number of raw values q in [0, top] whose density is < v: 0 .. top + 1 (top + 1 for a NaN v,
+/// so that no range holds it).
+SYLVA_FN uint sylva_ikd_raw_below(float v, float lo, float span, uint top) {
+    float d0 = sylva_grid_normalise(0u, lo, span);
+    if (v <= d0) return 0u;
+    if (!(v > d0) || v > sylva_grid_normalise(top, lo, span)) return top + 1u;  // NaN, or above every value
+    float g = v * span + lo;
+    uint q = (g > 0.0f) ? ((g < float(top)) ? uint(g) : top) : 0u;
+    while (q > 0u && sylva_grid_normalise(q, lo, span) >= v) q = q - 1u;
+    while (q < top && sylva_grid_normalise(q + 1u, lo, span) < v) q = q + 1u;
+    return (sylva_grid_normalise(q, lo, span) < v) ? q + 1u : q;
+}
+
+/// Number of unorm16 codes q whose density float(q) / 65535 (sylva_ikd_node_range) is <= v:
+/// 0 .. 65536, 0 for a NaN v.
+SYLVA_FN uint sylva_ikd_codes_at_most(float v) { return sylva_ikd_raw_at_most(v, 0.0f, 65535.0f, 65535u); }
 
 /// The first unorm16 code whose density is >= v: 0 .. 65535, or 65536 when there is none (v > 1
 /// or NaN). Below 65536 it is the number of codes whose density is < v.
-SYLVA_FN uint sylva_ikd_codes_below(float v) {
-    if (v <= 0.0f) return 0u;
-    if (!(v > 0.0f)) return 65536u;  // NaN
-    if (v > 1.0f) return 65536u;
-    uint q = uint(v * 65535.0f);
-    while (q > 0u && float(q) / 65535.0f >= v) q = q - 1u;
-    while (q < 65535u && float(q + 1u) / 65535.0f < v) q = q + 1u;
-    return (float(q) / 65535.0f < v) ? q + 1u : q;
+SYLVA_FN uint sylva_ikd_codes_below(float v) { return sylva_ikd_raw_below(v, 0.0f, 65535.0f, 65535u); }
+
+/// The first `count` isovalues as bounds on raw values q in [0, top] of density
+/// sylva_grid_normalise(q, lo, span): iso k lies in [density(a), density(b)] exactly when
+/// a < at_most[k] and b >= below[k]. Isovalues from `count` on get at_most = 0 and never match.
+SYLVA_FN void sylva_ikd_value_bounds(vec4 isos, uint count, float lo, float span, uint top, SYLVA_OUT(uvec4) at_most,
+                                     SYLVA_OUT(uvec4) below) {
+    at_most = uvec4(0u, 0u, 0u, 0u);
+    below = uvec4(0u, 0u, 0u, 0u);
+    if (count > 0u) { at_most.x = sylva_ikd_raw_at_most(isos.x, lo, span, top); below.x = sylva_ikd_raw_below(isos.x, lo, span, top); }
+    if (count > 1u) { at_most.y = sylva_ikd_raw_at_most(isos.y, lo, span, top); below.y = sylva_ikd_raw_below(isos.y, lo, span, top); }
+    if (count > 2u) { at_most.z = sylva_ikd_raw_at_most(isos.z, lo, span, top); below.z = sylva_ikd_raw_below(isos.z, lo, span, top); }
+    if (count > 3u) { at_most.w = sylva_ikd_raw_at_most(isos.w, lo, span, top); below.w = sylva_ikd_raw_below(isos.w, lo, span, top); }
 }
 
 /// The isovalues as unorm16 code bounds, so that a node word is tested without converting it:
@@ -121,12 +148,18 @@ SYLVA_FN uint sylva_ikd_codes_below(float v) {
 /// below[k] (the float test of sylva_ikd_holds, decided in integers: same culling, bit for bit).
 /// Isovalues from `count` on get at_most = 0 and never match.
 SYLVA_FN void sylva_ikd_iso_codes(vec4 isos, uint count, SYLVA_OUT(uvec4) at_most, SYLVA_OUT(uvec4) below) {
+    sylva_ikd_value_bounds(isos, count, 0.0f, 65535.0f, 65535u, at_most, below);
+}
+
+/// The isovalues as bounds on the raw values of the header's integer grid (uint8: top 255,
+/// uint16: 65535; sylva_ikd_cell_holds tests cells with them); 0 for a float32 grid.
+SYLVA_FN void sylva_ikd_grid_codes(SYLVA_IN(SylvaIkdHeader) h, vec4 isos, uint count, SYLVA_OUT(uvec4) at_most,
+                                   SYLVA_OUT(uvec4) below) {
     at_most = uvec4(0u, 0u, 0u, 0u);
     below = uvec4(0u, 0u, 0u, 0u);
-    if (count > 0u) { at_most.x = sylva_ikd_codes_at_most(isos.x); below.x = sylva_ikd_codes_below(isos.x); }
-    if (count > 1u) { at_most.y = sylva_ikd_codes_at_most(isos.y); below.y = sylva_ikd_codes_below(isos.y); }
-    if (count > 2u) { at_most.z = sylva_ikd_codes_at_most(isos.z); below.z = sylva_ikd_codes_below(isos.z); }
-    if (count > 3u) { at_most.w = sylva_ikd_codes_at_most(isos.w); below.w = sylva_ikd_codes_below(isos.w); }
+    if (h.grid_format == SYLVA_GRID_F32) return;
+    uint top = (h.grid_format == SYLVA_GRID_U8) ? 255u : 65535u;
+    sylva_ikd_value_bounds(isos, count, h.value_lo, h.value_span, top, at_most, below);
 }
 
 /// True when node word `word` (unorm16 min | max << 16) holds one of the isovalues whose code
@@ -155,6 +188,7 @@ SYLVA_FN void sylva_ikd_begin(SYLVA_OUT(SylvaIkdIter) it, SylvaIkdHeader hdr, ve
     it.isos = isos;
     it.iso_count = (iso_count < 4u) ? iso_count : 4u;
     sylva_ikd_iso_codes(isos, it.iso_count, it.iso_at_most, it.iso_below);
+    sylva_ikd_grid_codes(hdr, isos, it.iso_count, it.raw_at_most, it.raw_below);
     it.sp = 0u;
     it.steps = 0u;
     it.level = SYLVA_IKD_NO_NODE;
@@ -304,11 +338,11 @@ SYLVA_FN void sylva_ikd_descend(SYLVA_INOUT(SylvaIkdIter) it, uint entry) {
     }
 }
 
-/// The eight corner densities of cell c of a grid of `cells` cells: lo = the z = c.z face
+/// The eight corner densities of cell c of a float32 grid of `cells` cells: lo = the z = c.z face
 /// ((0,0), (1,0), (0,1), (1,1) in x, y), hi = the z = c.z + 1 face in the same order. One index
 /// is computed and the others are offsets from it (the header check keeps the grid's sample
 /// count below 2^32, so none wraps).
-SYLVA_FN void sylva_ikd_corners(SYLVA_BUF(grid), uvec3 cells, uvec3 c, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
+SYLVA_FN_HOT void sylva_ikd_corners(SYLVA_BUF(grid), uvec3 cells, uvec3 c, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
     uint gx = cells.x + 1u;
     uint gxy = gx * (cells.y + 1u);
     uint i = c.x + gx * c.y + gxy * c.z;
@@ -320,15 +354,72 @@ SYLVA_FN void sylva_ikd_corners(SYLVA_BUF(grid), uvec3 cells, uvec3 c, SYLVA_OUT
 }
 
 /// True when the corners' [min, max] holds one of the first `count` isovalues.
-SYLVA_FN bool sylva_ikd_corners_hold(vec4 a, vec4 b, vec4 isos, uint count) {
+SYLVA_FN_HOT bool sylva_ikd_corners_hold(vec4 a, vec4 b, vec4 isos, uint count) {
     float lo = sylva_min(sylva_min(sylva_min(a.x, a.y), sylva_min(a.z, a.w)), sylva_min(sylva_min(b.x, b.y), sylva_min(b.z, b.w)));
     float hi = sylva_max(sylva_max(sylva_max(a.x, a.y), sylva_max(a.z, a.w)), sylva_max(sylva_max(b.x, b.y), sylva_max(b.z, b.w)));
     return sylva_ikd_holds(isos, count, lo, hi);
 }
 
+/// Raw value of sample i of an integer grid (SYLVA_GRID_U8 or U16; layout of grid_sample.h).
+SYLVA_FN_HOT uint sylva_ikd_raw(SYLVA_BUF(grid), uint format, uint i) {
+    if (format == SYLVA_GRID_U8) return SYLVA_LOAD_U8(grid, i);
+    return SYLVA_LOAD_U16(grid, i);
+}
+
+SYLVA_FN uint sylva_ikd_umin(uint a, uint b) { return (b < a) ? b : a; }
+SYLVA_FN uint sylva_ikd_umax(uint a, uint b) { return (b > a) ? b : a; }
+
+/// The candidate test of sylva_ikd_cell_holds for an integer grid (h.grid_format U8 / U16): the
+/// cell's raw min and max against the isovalues' raw bounds (sylva_ikd_grid_codes: the same
+/// test as on the densities, bit for bit, since the density is non-decreasing in the raw
+/// value); only a candidate's eight values are normalised (lo / hi are 0 for the others).
+/// Inlined on the host: as a call inside the walkers' loops it made the float32 path's DDA
+/// 10-20 % slower (docs/DESIGN.md, SYLVA_FN_HOT).
+SYLVA_FN_HOT bool sylva_ikd_cell_holds_raw(SYLVA_BUF(grid), SYLVA_IN(SylvaIkdHeader) h, uvec3 c, uvec4 raw_at_most,
+                                             uvec4 raw_below, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
+    uint f = h.grid_format;
+    uint gx = h.cells.x + 1u;
+    uint gxy = gx * (h.cells.y + 1u);
+    uint i = c.x + gx * c.y + gxy * c.z;
+    uint j = i + gxy;
+    uvec4 a = uvec4(sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i), sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i + 1u),
+                    sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i + gx), sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i + gx + 1u));
+    uvec4 b = uvec4(sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, j), sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, j + 1u),
+                    sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, j + gx), sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, j + gx + 1u));
+    uint mn = sylva_ikd_umin(sylva_ikd_umin(sylva_ikd_umin(a.x, a.y), sylva_ikd_umin(a.z, a.w)),
+                             sylva_ikd_umin(sylva_ikd_umin(b.x, b.y), sylva_ikd_umin(b.z, b.w)));
+    uint mx = sylva_ikd_umax(sylva_ikd_umax(sylva_ikd_umax(a.x, a.y), sylva_ikd_umax(a.z, a.w)),
+                             sylva_ikd_umax(sylva_ikd_umax(b.x, b.y), sylva_ikd_umax(b.z, b.w)));
+    lo = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+    hi = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+    bool holds = (mn < raw_at_most.x && mx >= raw_below.x) || (mn < raw_at_most.y && mx >= raw_below.y) ||
+                 (mn < raw_at_most.z && mx >= raw_below.z) || (mn < raw_at_most.w && mx >= raw_below.w);
+    if (!holds) return false;
+    float l = h.value_lo;
+    float s = h.value_span;
+    lo = vec4(sylva_grid_normalise(a.x, l, s), sylva_grid_normalise(a.y, l, s), sylva_grid_normalise(a.z, l, s),
+              sylva_grid_normalise(a.w, l, s));
+    hi = vec4(sylva_grid_normalise(b.x, l, s), sylva_grid_normalise(b.y, l, s), sylva_grid_normalise(b.z, l, s),
+              sylva_grid_normalise(b.w, l, s));
+    return true;
+}
+
+/// Reads cell c's eight corner densities into lo / hi (the order of sylva_ikd_corners) and
+/// returns true when their [min, max] holds one of the first `count` isovalues: the candidate
+/// test of the tree iterator, the DDA and the packets. A float32 grid is read as by
+/// sylva_ikd_corners; an integer grid through sylva_ikd_cell_holds_raw, with the isovalues'
+/// raw bounds (sylva_ikd_grid_codes).
+SYLVA_FN_HOT bool sylva_ikd_cell_holds(SYLVA_BUF(grid), SYLVA_IN(SylvaIkdHeader) h, uvec3 c, vec4 isos, uint count,
+                                       uvec4 raw_at_most, uvec4 raw_below, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
+    if (h.grid_format != SYLVA_GRID_F32)
+        return sylva_ikd_cell_holds_raw(SYLVA_PASS_BUF(grid), h, c, raw_at_most, raw_below, lo, hi);
+    sylva_ikd_corners(SYLVA_PASS_BUF(grid), h.cells, c, lo, hi);
+    return sylva_ikd_corners_hold(lo, hi, isos, count);
+}
+
 /// Advances to the next candidate cell. Returns false when the traversal is over (status DONE)
 /// or the header was refused at init (status ERROR).
-SYLVA_FN bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYLVA_BUF(grid), SYLVA_OUT(uvec3) cell,
+SYLVA_FN_HOT bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYLVA_BUF(grid), SYLVA_OUT(uvec3) cell,
                              SYLVA_OUT(float) t0, SYLVA_OUT(float) t1) {
     cell = uvec3(0u, 0u, 0u);
     t0 = 0.0f;
@@ -341,8 +432,8 @@ SYLVA_FN bool sylva_ikd_next(SYLVA_INOUT(SylvaIkdIter) it, SYLVA_BUF(words), SYL
         it.steps = it.steps + 1u;
         if (it.level >= it.hdr.levels) {  // a cell: its range from the corners, on the fly
             it.level = SYLVA_IKD_NO_NODE;
-            sylva_ikd_corners(SYLVA_PASS_BUF(grid), it.hdr.cells, it.node, it.corners_lo, it.corners_hi);
-            if (sylva_ikd_corners_hold(it.corners_lo, it.corners_hi, it.isos, it.iso_count)) {
+            if (sylva_ikd_cell_holds(SYLVA_PASS_BUF(grid), it.hdr, it.node, it.isos, it.iso_count, it.raw_at_most,
+                                     it.raw_below, it.corners_lo, it.corners_hi)) {
                 cell = it.node;
                 t0 = it.t_in;
                 t1 = it.t_out;

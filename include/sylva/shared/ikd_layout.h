@@ -50,11 +50,16 @@
 //   20 + 2L the node words (format: word 7), level by level; node (x0, y0, z0) of level l is node
 //           first_l + (x0 >> w.x) + r.x * ((y0 >> w.y) + r.y * (z0 >> w.z)), with
 //           r = ceil(C / 2^w) the real nodes of the level per axis.
-// The grid the cells read is a separate buffer `grid` of (C.x + 1) (C.y + 1) (C.z + 1) words,
-// float bits of normalised densities, x fastest (sylva/shared/grid_sample.h).
+// The grid the cells read is a separate buffer `grid` of the (C.x + 1) (C.y + 1) (C.z + 1)
+// samples, x fastest, in one of the dense formats of sylva/shared/grid_sample.h: SYLVA_GRID_F32
+// (one word a sample, float bits of normalised densities) or SYLVA_GRID_U8 / U16 (raw values
+// packed 4 / 2 a word, normalised on the fly with a value range, sylva_grid_normalise). The
+// format and range are not part of the encoding: the reader is given them with the grid
+// (sylva_ikd_read_header_grid; the renderer's parameter block, sylva/shared/iso_render.h).
 #ifndef SYLVA_SHARED_IKD_LAYOUT_H
 #define SYLVA_SHARED_IKD_LAYOUT_H
 
+#include "sylva/shared/grid_sample.h"
 #include "sylva/shared/lang.h"
 
 #define SYLVA_IKD_MAGIC 0x444B4953u
@@ -79,6 +84,9 @@ struct SylvaIkdHeader {
     vec3 inv_spacing;
     vec3 origin;
     uint nodes_at;  ///< word offset of node 0
+    uint grid_format;  ///< the grid's SYLVA_GRID_F32, _U8 or _U16 (given to the reader, not encoded)
+    float value_lo;    ///< integer grids: raw value of density 0
+    float value_span;  ///< integer grids: raw values per unit of density (> 0)
     uint valid;
 };
 
@@ -133,12 +141,24 @@ SYLVA_FN uint sylva_ikd_check_levels(SYLVA_BUF(words), uvec3 cells, uvec3 lg, ui
     return first;
 }
 
+/// Words of a dense grid of n samples in `format` (SYLVA_GRID_F32, U8 or U16; n < 2^32).
+SYLVA_FN uint sylva_ikd_grid_words(uint n, uint format) {
+    if (format == SYLVA_GRID_U8) return (n >> 2u) + (((n & 3u) != 0u) ? 1u : 0u);
+    if (format == SYLVA_GRID_U16) return (n >> 1u) + (n & 1u);
+    return n;
+}
+
 /// Reads and checks the header of an encoding of `word_count` words whose grid buffer holds
-/// `grid_words` words: magic, version, cell counts, padding, level count, the level table, the
-/// node count, the total size, a finite positive spacing and 1 / spacing, a finite origin.
-/// Invalid: valid = 0.
-SYLVA_FN SylvaIkdHeader sylva_ikd_read_header(SYLVA_BUF(words), uint word_count, uint grid_words) {
+/// `grid_words` words of samples in `grid_format` (value range value_lo, value_span for the
+/// integer formats): magic, version, cell counts, padding, level count, the level table, the
+/// node count, the total size, a finite positive spacing and 1 / spacing, a finite origin, the
+/// grid's format, range and word count. Invalid: valid = 0.
+SYLVA_FN SylvaIkdHeader sylva_ikd_read_header_grid(SYLVA_BUF(words), uint word_count, uint grid_words, uint grid_format,
+                                                   float value_lo, float value_span) {
     SylvaIkdHeader h;
+    h.grid_format = grid_format;
+    h.value_lo = value_lo;
+    h.value_span = value_span;
     h.cells = uvec3(SYLVA_LOAD(words, 2u), SYLVA_LOAD(words, 3u), SYLVA_LOAD(words, 4u));
     uint packed = SYLVA_LOAD(words, 5u);
     h.levels = packed & 255u;
@@ -170,15 +190,24 @@ SYLVA_FN SylvaIkdHeader sylva_ikd_read_header(SYLVA_BUF(words), uint word_count,
          h.inv_spacing.x < sylva_inf() && h.inv_spacing.y < sylva_inf() && h.inv_spacing.z < sylva_inf();
     ok = ok && h.origin.x > -sylva_inf() && h.origin.x < sylva_inf() && h.origin.y > -sylva_inf() &&
          h.origin.y < sylva_inf() && h.origin.z > -sylva_inf() && h.origin.z < sylva_inf();
+    ok = ok && (grid_format == SYLVA_GRID_F32 || grid_format == SYLVA_GRID_U8 || grid_format == SYLVA_GRID_U16);
+    ok = ok && (grid_format == SYLVA_GRID_F32 || (value_span > 0.0f && value_span < sylva_inf() &&
+                                                  value_lo > -sylva_inf() && value_lo < sylva_inf()));
     if (!ok) return h;
-    // The grid: (C + 1)^3 samples, in 32 bits.
+    // The grid: (C + 1)^3 samples (fewer than 2^32), in the words of its format.
     uint gx = h.cells.x + 1u;
     uint gy = h.cells.y + 1u;
     uint gz = h.cells.z + 1u;
-    if (gx * gy / gy != gx || (gx * gy) * gz / gz != gx * gy || gx * gy * gz != grid_words) return h;
+    if (gx * gy / gy != gx || (gx * gy) * gz / gz != gx * gy) return h;
+    if (sylva_ikd_grid_words(gx * gy * gz, grid_format) != grid_words) return h;
     if (sylva_ikd_check_levels(SYLVA_PASS_BUF(words), h.cells, h.lg, h.levels, h.stored) != h.node_count) return h;
     h.valid = 1u;
     return h;
+}
+
+/// sylva_ikd_read_header_grid for a float32 grid (SYLVA_GRID_F32) of `grid_words` words.
+SYLVA_FN SylvaIkdHeader sylva_ikd_read_header(SYLVA_BUF(words), uint word_count, uint grid_words) {
+    return sylva_ikd_read_header_grid(SYLVA_PASS_BUF(words), word_count, grid_words, SYLVA_GRID_F32, 0.0f, 1.0f);
 }
 
 /// Level l's table entry and first node.

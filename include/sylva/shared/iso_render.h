@@ -23,7 +23,10 @@
 //   27     word count of the tree encoding    28  word count of the grid
 //   29     ray source: SYLVA_RAYS_* (camera.h: pinhole or orthographic from words 0-11; or the
 //          caller's ray buffer, read by the shader with rays.h's sylva_rays_load)
-//   30-31  reserved, 0
+//   30     grid format: SYLVA_GRID_F32, _U8 or _U16 (sylva/shared/grid_sample.h)
+//   31-32  value range of an integer grid: raw value of density 0, raw values per unit (float
+//          bits; the float32 grid: 0 and 1)
+//   33-35  reserved, 0
 #ifndef SYLVA_SHARED_ISO_RENDER_H
 #define SYLVA_SHARED_ISO_RENDER_H
 
@@ -32,7 +35,7 @@
 #include "sylva/shared/ikd_iter.h"
 #include "sylva/shared/iso_cell.h"
 
-#define SYLVA_ISO_PARAM_WORDS 32u
+#define SYLVA_ISO_PARAM_WORDS 36u
 #define SYLVA_ISO_WALK_TREE 0u
 #define SYLVA_ISO_WALK_DDA 1u
 
@@ -55,6 +58,9 @@ struct SylvaIsoParams {
     uint tree_words;
     uint grid_words;
     uint ray_source;
+    uint grid_format;
+    float value_lo;
+    float value_span;
 };
 
 SYLVA_FN vec3 sylva_iso_load3(SYLVA_BUF(params), uint at) {
@@ -82,7 +88,17 @@ SYLVA_FN SylvaIsoParams sylva_iso_read_params(SYLVA_BUF(params)) {
     p.tree_words = SYLVA_LOAD(params, 27u);
     p.grid_words = SYLVA_LOAD(params, 28u);
     p.ray_source = SYLVA_LOAD(params, 29u);
+    p.grid_format = SYLVA_LOAD(params, 30u);
+    p.value_lo = uintBitsToFloat(SYLVA_LOAD(params, 31u));
+    p.value_span = uintBitsToFloat(SYLVA_LOAD(params, 32u));
     return p;
+}
+
+/// The tree's header checked against the grid the parameters describe (sizes, format, range);
+/// read once for all rays.
+SYLVA_FN SylvaIkdHeader sylva_iso_read_header(SYLVA_BUF(words), SylvaIsoParams p) {
+    return sylva_ikd_read_header_grid(SYLVA_PASS_BUF(words), p.tree_words, p.grid_words, p.grid_format, p.value_lo,
+                                      p.value_span);
 }
 
 /// What one ray did: premultiplied colour, and counters for the statistics.
@@ -146,7 +162,7 @@ SYLVA_FN vec4 sylva_iso_shade_cell(vec4 acc, SylvaIsoParams p, uvec3 cell, vec4 
 
 /// Traces the ray eye + t dir (dir unit length) through the candidate cells of the walker
 /// p.walker names (the tree, or the reference DDA); `hdr` is the tree's header
-/// (sylva_ikd_read_header(words, p.tree_words, p.grid_words), read once for all rays).
+/// (sylva_iso_read_header(words, p), read once for all rays).
 SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIsoParams p, SylvaIkdHeader hdr, vec3 eye,
                                      vec3 dir) {
     SylvaIsoRay r;

@@ -15,6 +15,10 @@
 //  * Buffers: a function that reads a buffer takes `SYLVA_BUF(name)` and reads with
 //    `SYLVA_LOAD(name, index)`. In C++ that is a bounds-safe view over 32-bit words; in GLSL the
 //    shader defines `uint sylva_load_<name>(uint i)` before including the shared header.
+//    `SYLVA_LOAD_U8(name, i)` / `SYLVA_LOAD_U16(name, i)` read byte / 16-bit half i of the
+//    words, little-endian (i.e. bits 8 (i & 3) of word i >> 2): a byte load on the host, a
+//    shift and mask of the word in GLSL; 0 past the end. Arguments are evaluated more than
+//    once in GLSL: pass a plain variable or expression without side effects.
 //    The buffer is chosen by the parameter's NAME in GLSL, by its value in C++: a helper
 //    declared with SYLVA_BUF(words) always reads `words` on the GPU, whatever is passed. Only
 //    pass a buffer on to a helper whose parameter has the same name (the parity tests catch it).
@@ -46,8 +50,10 @@
 #if defined(__FAST_MATH__)
 #error "sylva: the shared C++/GLSL headers need IEEE float semantics: do not compile them with -ffast-math or -Ofast (they also need -ffp-contract=off, which the sylva::sylva CMake target adds; pass it yourself outside it)"
 #endif
+#include <bit>
 #include <cstdint>
 #include <cstddef>
+#include <cstring>
 #include <functional>
 #include <glm/glm.hpp>
 #include <glm/gtc/type_precision.hpp>
@@ -65,7 +71,20 @@ struct Words {
     /// callable density -> straight RGBA; null elsewhere. GLSL's hook is the shader's function.
     const std::function<glm::vec4(float)>* hook = nullptr;
     [[nodiscard]] std::uint32_t operator[](std::size_t i) const noexcept { return i < size ? data[i] : 0u; }
+    /// Byte i of the words, little-endian (bits 8 (i & 3) .. of word i >> 2); 0 past the end.
+    [[nodiscard]] std::uint32_t byte_at(std::size_t i) const noexcept {
+        return i < size * 4 ? std::uint32_t{reinterpret_cast<const unsigned char*>(data)[i]} : 0u;
+    }
+    /// 16-bit half i of the words, little-endian (bits 16 (i & 1) .. of word i >> 1); 0 past the end.
+    [[nodiscard]] std::uint32_t half_at(std::size_t i) const noexcept {
+        if (i >= size * 2) return 0u;
+        std::uint16_t h;
+        std::memcpy(&h, reinterpret_cast<const unsigned char*>(data) + 2 * i, 2);
+        return h;
+    }
 };
+static_assert(std::endian::native == std::endian::little,
+              "sylva: byte_at / half_at read the words' bytes as the GPU does (little endian)");
 }  // namespace sylva::shared
 
 #define SYLVA_BEGIN_NAMESPACE namespace sylva::shared {
@@ -78,6 +97,8 @@ struct Words {
 #define SYLVA_IN(T) const T&
 #define SYLVA_BUF(name) const ::sylva::shared::Words& name
 #define SYLVA_LOAD(name, i) (name)[(i)]
+#define SYLVA_LOAD_U8(name, i) (name).byte_at(i)
+#define SYLVA_LOAD_U16(name, i) (name).half_at(i)
 #define SYLVA_PASS_BUF(name) name
 #define SYLVA_PRECISE
 #define SYLVA_CONST constexpr
@@ -100,6 +121,8 @@ struct Words {
 #define SYLVA_IN(T) in T
 #define SYLVA_BUF(name) uint name
 #define SYLVA_LOAD(name, i) sylva_load_##name(i)
+#define SYLVA_LOAD_U8(name, i) ((sylva_load_##name((i) >> 2u) >> (((i) & 3u) * 8u)) & 255u)
+#define SYLVA_LOAD_U16(name, i) ((sylva_load_##name((i) >> 1u) >> (((i) & 1u) * 16u)) & 65535u)
 #define SYLVA_PASS_BUF(name) 0u
 #define SYLVA_PRECISE precise
 #define SYLVA_CONST const

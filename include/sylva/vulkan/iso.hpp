@@ -2,7 +2,7 @@
 // (shaders/ikd_iso.comp, embedded SPIR-V): same parameters, same Frame, same counters.
 //
 //   auto ctx = sylva::vk::Context::create();
-//   sylva::vk::DeviceIso iso(ctx, words, sylva::GridWords::from(grid));
+//   sylva::vk::DeviceIso iso(ctx, words, sylva::GridWords::from(grid));  // or ::native(volume)
 //   sylva::IsoCounters n;
 //   sylva::Frame img = iso.render(ctx, params, &n);
 #ifndef SYLVA_VULKAN_ISO_HPP
@@ -27,15 +27,15 @@ namespace sylva::vk {
 class DeviceIso {
 public:
     DeviceIso(Context& ctx, std::span<const std::uint32_t> tree_words, const GridWords& grid)
-        : tree_(ctx, checked(ctx, tree_words.size(), "tree") * 4), grid_(ctx, checked(ctx, float32_words(grid), "grid") * 4),
-          tree_words_(tree_words.size()), grid_words_(grid.words.size()) {
+        : tree_(ctx, checked(ctx, tree_words.size(), "tree") * 4), grid_(ctx, checked(ctx, dense_words(grid), "grid") * 4),
+          tree_words_(tree_words.size()), grid_words_(grid.words.size()), sampling_(grid.sampling) {
         tree_.upload(tree_words);
         grid_.upload(grid.words);
     }
 
     /// Renders as render_iso_cpu does (p.walker picks the tree or the DDA).
     Frame render(Context& ctx, const IsoRenderParams& p, IsoCounters* counters = nullptr) {
-        std::vector<std::uint32_t> params = iso_params(p, tree_words_, grid_words_);
+        std::vector<std::uint32_t> params = iso_params(p, tree_words_, grid_words_, sampling_);
         Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 8 * 4);
         pb.upload(params);
         if (!kernel_) {
@@ -65,8 +65,9 @@ public:
     }
 
 private:
-    /// The word count of a float32 grid (check_iso_grid throws for other formats).
-    static std::size_t float32_words(const GridWords& g) {
+    /// The word count of a dense grid (check_iso_grid throws for a sparse one, a bad range or
+    /// word count).
+    static std::size_t dense_words(const GridWords& g) {
         check_iso_grid(g);
         return g.words.size();
     }
@@ -79,6 +80,7 @@ private:
     }
     Buffer tree_, grid_;
     std::size_t tree_words_, grid_words_;
+    GridSampling sampling_;
     std::optional<Kernel> kernel_;
 };
 
