@@ -260,6 +260,29 @@ sylva_render_test(iso_ct12_implicit_kd FIXTURE sylva_range_volumes
        -o ${_rv}/iso_ct12.png --stats-json ${_rv}/iso_ct12.json
   FILES ${_rv}/iso_ct12.png JSON ${_rv}/iso_ct12.json EXTRA_KEYS ${_iso_keys}
   JSON_MIN visible_pixels=${_rv_min_visible} JSON_EQUAL value_range.1=3926 data_bytes=184320)
+# The 12-bit CT read as stored (--grid native, the default: uint16, 2 bytes a sample) or as a float
+# copy, on both backends (issue 17); that both give the same hits, bit for bit, is checked by
+# test_iso_render (host) and test_iso_parity (lavapipe).
+foreach(backend cpu vulkan)
+  if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
+    continue()
+  endif()
+  foreach(grid native float32)
+    if(grid STREQUAL "native")
+      set(_grid_json grid_bytes=184320 grid_format=uint16)
+    else()
+      set(_grid_json grid_bytes=368640 grid_format=float32)
+    endif()
+    sylva_render_test(iso_grid_${grid}_ct12_${backend} FIXTURE sylva_range_volumes
+      ARGS --volume ${_rv}/ct12_48x48x40_uint16.raw --index implicit-kd --iso 0.5 --grid ${grid} --backend ${backend}
+           --size 96x72 --quiet -o ${_rv}/iso_grid_${grid}_${backend}.png --stats-json ${_rv}/iso_grid_${grid}_${backend}.json
+      FILES ${_rv}/iso_grid_${grid}_${backend}.png JSON ${_rv}/iso_grid_${grid}_${backend}.json
+      EXTRA_KEYS ${_iso_keys} grid_bytes grid_format
+      JSON_MIN visible_pixels=${_rv_min_visible} JSON_EQUAL ${_grid_json} errors=0)
+  endforeach()
+endforeach()
+sylva_render_test(iso_grid_sparse RC 2 ERR "--grid sparse: the implicit kd-tree and the DDA read dense grids"
+  ARGS --index implicit-kd --grid sparse -o ${_out}/x.png)
 sylva_render_test(iso_outside FIXTURE sylva_range_volumes  # densities reach 3926 / 8000 = 0.49 only
   ERR "nothing visible.*iso value +0.8 \\(raw value 6400\\).*an --iso value in .0, 0.49"
   ARGS --volume ${_rv}/ct12_48x48x40_uint16.raw --range 0,8000 --index implicit-kd --iso 0.8 --size 96x72 --quiet
@@ -388,7 +411,8 @@ sylva_render_test(kd_volume RC 2 ERR "--index kd renders particles"
   ARGS --index kd --volume procedural -o ${_out}/x.png)
 
 # --camera ortho (issue 17) on both backends and through the kd-tree, --repeat's median and
-# minimum in the stats JSON; ortho is refused where the pinhole is the only camera.
+# minimum in the stats JSON, the leaf boxes drawn with it; ortho is refused where the pinhole is
+# the only camera (particles, out-of-core octrees).
 foreach(backend cpu vulkan)
   if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
     continue()
@@ -402,6 +426,13 @@ foreach(backend cpu vulkan)
       JSON_EQUAL camera=ortho repeat=3 JSON_MIN visible_pixels=100 frame_ms.2=0 ms_median=0)
   endforeach()
 endforeach()
+# The kd-tree's leaf boxes drawn with the orthographic camera (--boxes; the projection itself is
+# tested against the cameras' rays by unit.test_render_boxes).
+sylva_render_test(camera_ortho_boxes KEYS_ONLY
+  ARGS --volume procedural --index kd-vidal --camera ortho --size 64x48 --quiet -o ${_out}/ortho_boxes.png
+       --boxes ${_out}/ortho_boxes_lines.png --stats-json ${_out}/ortho_boxes.json
+  FILES ${_out}/ortho_boxes.png ${_out}/ortho_boxes_lines.png JSON ${_out}/ortho_boxes.json
+  JSON_EQUAL camera=ortho EXTRA_KEYS camera)
 # --grid native|sparse (issue 17): the uint8 aneurism from 1 byte a voxel (grid_bytes = the voxel
 # count) and from 8^3 bricks with the uniform ones held in the brick table (7,041 of 32,768
 # bricks stored: 3,736,064 bytes), through the ESS kd-tree on both backends. That the images are

@@ -1,6 +1,6 @@
 // sylva-render: the leaf boxes of a kd-tree drawn as lines over a rendering (--boxes): the 12
-// edges of every box projected with the rendering's camera (sylva/shared/camera.h, inverted)
-// and rasterised on the host.
+// edges of every box projected with the rendering's camera, pinhole or orthographic
+// (sylva/shared/camera.h, inverted), and rasterised on the host.
 #ifndef SYLVA_RENDER_BOXES_HPP
 #define SYLVA_RENDER_BOXES_HPP
 
@@ -16,12 +16,14 @@
 namespace sylva_render {
 
 /// Pixel position (x right, y down, pixel i covering [i, i + 1)) of world point p seen through
-/// `cam` in a width x height image, given its depth along w is positive. The camera sends pixel
-/// (x, y) along w + sx u + sy v with sx = 2 (x + 0.5) / width - 1, sy = 1 - 2 (y + 0.5) / height,
-/// and u, v, w orthogonal: p - eye = a (w + sx u + sy v) gives sx and sy.
-inline sylva::vec2 project(const sylva::CameraFrame& cam, sylva::vec3 p, std::uint32_t width, std::uint32_t height) {
+/// `cam` in a width x height image, given its depth along w is positive, with sx = 2 (x + 0.5) /
+/// width - 1, sy = 1 - 2 (y + 0.5) / height and u, v, w orthogonal. The pinhole camera sends
+/// pixel (x, y) along w + sx u + sy v: p - eye = a (w + sx u + sy v) gives sx and sy. The
+/// orthographic one (`ortho`) starts it at eye + sx u + sy v along w: p - eye = sx u + sy v + a w.
+inline sylva::vec2 project(const sylva::CameraFrame& cam, sylva::vec3 p, std::uint32_t width, std::uint32_t height,
+                           bool ortho) {
     sylva::vec3 rel = p - cam.eye;
-    float a = glm::dot(rel, cam.w) / glm::dot(cam.w, cam.w);
+    float a = ortho ? 1.0f : glm::dot(rel, cam.w) / glm::dot(cam.w, cam.w);
     float sx = glm::dot(rel, cam.u) / (a * glm::dot(cam.u, cam.u));
     float sy = glm::dot(rel, cam.v) / (a * glm::dot(cam.v, cam.v));
     return {(sx + 1.0f) * 0.5f * static_cast<float>(width), (1.0f - sy) * 0.5f * static_cast<float>(height)};
@@ -50,17 +52,18 @@ inline bool clip_segment(sylva::vec2& a, sylva::vec2& b, sylva::vec2 lo, sylva::
     return true;
 }
 
-/// Draws one world-space segment over `f`: clipped to the camera's near side, projected,
-/// clipped to the image and rasterised one pixel per step along the longer axis; `colour` is
-/// straight RGBA, composited over the pixels.
-inline void draw_segment(sylva::Frame& f, const sylva::CameraFrame& cam, sylva::vec3 p, sylva::vec3 q,
+/// Draws one world-space segment over `f`: clipped to the camera's near side (the orthographic
+/// camera's: its image plane through the eye, where its rays start), projected, clipped to the
+/// image and rasterised one pixel per step along the longer axis; `colour` is straight RGBA,
+/// composited over the pixels.
+inline void draw_segment(sylva::Frame& f, const sylva::CameraFrame& cam, bool ortho, sylva::vec3 p, sylva::vec3 q,
                          sylva::vec4 colour) {
     sylva::vec3 w = glm::normalize(cam.w);
-    float near = 1e-4f * glm::length(cam.w), dp = glm::dot(p - cam.eye, w), dq = glm::dot(q - cam.eye, w);
+    float near = ortho ? 0.0f : 1e-4f * glm::length(cam.w), dp = glm::dot(p - cam.eye, w), dq = glm::dot(q - cam.eye, w);
     if (dp <= near && dq <= near) return;
     if (dp <= near) p = q + (p - q) * ((dq - near) / (dq - dp));
     if (dq <= near) q = p + (q - p) * ((dp - near) / (dp - dq));
-    sylva::vec2 a = project(cam, p, f.width, f.height), b = project(cam, q, f.width, f.height);
+    sylva::vec2 a = project(cam, p, f.width, f.height, ortho), b = project(cam, q, f.width, f.height, ortho);
     if (!clip_segment(a, b, sylva::vec2(0.0f), sylva::vec2(float(f.width) - 1e-3f, float(f.height) - 1e-3f))) return;
     int steps = static_cast<int>(std::ceil(std::max(std::abs(b.x - a.x), std::abs(b.y - a.y)))) + 1;
     for (int i = 0; i <= steps; ++i) {
@@ -72,8 +75,9 @@ inline void draw_segment(sylva::Frame& f, const sylva::CameraFrame& cam, sylva::
     }
 }
 
-/// Draws the 12 edges of every box over `f` in `colour` (straight RGBA).
-inline void draw_boxes(sylva::Frame& f, const sylva::CameraFrame& cam, std::span<const sylva::Aabb> boxes,
+/// Draws the 12 edges of every box over `f` in `colour` (straight RGBA), seen through `cam` as
+/// a pinhole camera, or as an orthographic one when `ortho`.
+inline void draw_boxes(sylva::Frame& f, const sylva::CameraFrame& cam, bool ortho, std::span<const sylva::Aabb> boxes,
                        sylva::vec4 colour) {
     for (const sylva::Aabb& b : boxes) {
         std::array<sylva::vec3, 8> v;
@@ -81,7 +85,7 @@ inline void draw_boxes(sylva::Frame& f, const sylva::CameraFrame& cam, std::span
             v[i] = sylva::vec3((i & 1) ? b.hi.x : b.lo.x, (i & 2) ? b.hi.y : b.lo.y, (i & 4) ? b.hi.z : b.lo.z);
         for (int i = 0; i < 8; ++i)
             for (int k : {1, 2, 4})
-                if ((i & k) == 0) draw_segment(f, cam, v[i], v[i | k], colour);
+                if ((i & k) == 0) draw_segment(f, cam, ortho, v[i], v[i | k], colour);
     }
 }
 

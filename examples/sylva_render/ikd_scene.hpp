@@ -40,8 +40,8 @@ inline std::vector<sylva::IsoSurface> surfaces(const Options& o) {
 
 }  // namespace ikd_detail
 
-inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::VolumeRenderParams& vp,
-                          sylva::ThreadPool& pool, Stats& s) {
+inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::volume::Volume* raw,
+                          const sylva::VolumeRenderParams& vp, sylva::ThreadPool& pool, Stats& s) {
     using namespace sylva;
     ikd::Config cfg;
     cfg.brick_levels = o.ikd_bricks;
@@ -52,7 +52,7 @@ inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g,
     auto t0 = std::chrono::steady_clock::now();
     std::vector<std::uint32_t> words = ikd::encode(tree);
     s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    GridWords gw = GridWords::from(g);
+    GridWords gw = render_grid(o, g, raw, s);  // --grid native: the file's uint8 / uint16 samples as read
     IsoRenderParams p;
     p.camera = vp.camera;
     p.rays = vp.rays;  // --camera

@@ -200,11 +200,11 @@ inline void fill_stats(const Options& o, const volume::DensityGrid& g, const kdt
 
 }  // namespace kd_detail
 
-inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::VolumeRenderParams& p,
-                         sylva::ThreadPool& pool, Stats& s) {
+inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::volume::Volume* raw,
+                         const sylva::VolumeRenderParams& p, sylva::ThreadPool& pool, Stats& s) {
     using namespace sylva;
     using namespace kd_detail;
-    GridWords gw = render_grid(o, g, s);  // --grid native: 1 byte a voxel for uint8 data
+    GridWords gw = render_grid(o, g, raw, s);  // --grid native: 1 byte a voxel for uint8 data
     Device dev;
     if (o.backend == "vulkan") {
 #ifdef SYLVA_RENDER_VULKAN
@@ -237,7 +237,7 @@ inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, 
     if (!o.boxes.empty()) {
         Frame framed = f;
         std::vector<Aabb> boxes = kdtree::world_boxes(t, kdtree::leaf_boxes(t));
-        draw_boxes(framed, p.camera, boxes, vec4(0.2f, 1.0f, 0.4f, 1.0f));
+        draw_boxes(framed, p.camera, p.rays.source == RaySource::Ortho, boxes, vec4(0.2f, 1.0f, 0.4f, 1.0f));
         write_frame(o.boxes, framed, vec3(0.0f));
     }
     s.fill_frame(f);

@@ -333,7 +333,7 @@ void add_volumes(CLI::App& app, Options& o) {
     g.converted("--spacing", o.spacing, read_vec3, "X,Y,Z", "voxel size (overrides the file's)");
     g.choice("--border", o.border, {"clamp", "zero"}, "what samples read outside the voxel centres");
     g.choice("--grid", o.grid_format, {"native", "sparse", "float32"},
-             "uint8 data rendered from 1 byte a voxel, from 8^3 bricks with uniform ones not stored, or a float copy");
+             "uint8/uint16 files read as stored (1/2 bytes a voxel), in 8^3 bricks with uniform ones not stored, or a float copy");
     g.number("--lod-density", o.lod_density, 0, 1, "F", "min element density of an LoD leaf (Kinkelin Table 3)");
     g.number("--lod-stddev", o.lod_stddev, 0, 1, "F", "max std-dev of an LoD leaf's densities");
     g.number("--lod-depth", o.lod_depth, 0, 64, "N", "max LoD depth");
@@ -456,10 +456,10 @@ void check_volume(Options& o, const CLI::App& app) {
     if (o.ikd_index() && o.mode == "dvr")
         throw std::invalid_argument("--index " + o.index + " renders isosurfaces (--mode iso), not --mode dvr");
     if (o.ikd_index()) o.mode = "iso";
+    if (o.ikd_index() && o.grid_format == "sparse")
+        throw std::invalid_argument("--grid sparse: the implicit kd-tree and the DDA read dense grids (--grid native or float32)");
     if (o.camera == "ortho" && (!o.volume_input() || o.out_of_core()))
         throw std::invalid_argument("--camera ortho renders in-core volumes (not particles or out-of-core octrees)");
-    if (o.camera == "ortho" && !o.boxes.empty())
-        throw std::invalid_argument("--boxes projects with the pinhole camera; drop it with --camera ortho");
     if (o.isos.size() > 1 && !o.ikd_index())
         throw std::invalid_argument("several --iso values need --index implicit-kd or dda");
     if (o.octree_index() && o.volume_input() && o.mode.empty()) o.mode = "dvr";

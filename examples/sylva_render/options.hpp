@@ -36,7 +36,7 @@ struct Options {
     std::string tf_preset = "ct";    ///< --tf-preset ct|ramp
     float threshold = 0.1f;          ///< --threshold D: voxels with normalised density >= D are elements
     std::string border = "zero";     ///< --border clamp|zero: what grid samples read outside the voxel centres
-    std::string grid_format = "native";  ///< --grid native|sparse|float32: uint8 data rendered from 1 byte a voxel, from 8^3 bricks (uniform ones held in the brick table), or a float copy
+    std::string grid_format = "native";  ///< --grid native|sparse|float32: uint8 / uint16 files read as stored (1 / 2 bytes a voxel), in 8^3 bricks (uniform ones held in the brick table), or a float copy
     float resample = 1.0f;           ///< --resample F: trilinear supersampling factor (Kinkelin 6.2)
     std::optional<std::vector<float>> spacing;  ///< --spacing X,Y,Z: voxel size override
     /// --range auto|type|LO,HI: the raw values that map to density 0 and 1 (volume files; auto:

@@ -47,8 +47,9 @@ std::optional<volume::DensityGrid> procedural_volume(const std::string& name, st
 }
 
 /// The density grid of --volume: a procedural one, or a file normalised over --range (the range
-/// used goes to the stats), resampled by --resample.
-volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s) {
+/// used goes to the stats), resampled by --resample. A uint8 / uint16 file not resampled is also
+/// kept as read in `raw`, for the renderers that read it natively (render_grid).
+volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s, std::optional<volume::Volume>& raw_out) {
     Stats::VolumeRows& v = s.volume;
     std::optional<volume::DensityGrid> g = procedural_volume(o.volume, s.input);
     v.range_lo = 0.0f;
@@ -64,6 +65,7 @@ volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s) {
         v.range_source = volume::range_source_name(raw.range_source);
         v.data_bytes = raw.bytes.size();
         g = volume::normalize(raw);
+        if (raw.type != volume::ScalarType::F32 && o.resample == 1.0f) raw_out = std::move(raw);
     }
     if (v.data_bytes == 0) v.data_bytes = g->values.size() * 4;  // procedural: float32 densities
     if (o.resample != 1.0f) {
@@ -76,28 +78,15 @@ volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s) {
 
 }  // namespace
 
-GridWords render_grid(const Options& o, const volume::DensityGrid& g, Stats& s) {
+GridWords render_grid(const Options& o, const volume::DensityGrid& g, const volume::Volume* raw, Stats& s) {
     GridBorder border = o.border == "clamp" ? GridBorder::clamp() : GridBorder{};
     s.volume.border = o.border;
-    if (o.grid_format == "native" || o.grid_format == "sparse") {
-        volume::Volume bytes;
-        bytes.type = volume::ScalarType::U8;
-        bytes.dims = g.dims;
-        bytes.spacing = g.spacing;
-        bytes.bytes.resize(g.values.size());
-        bool exact = true;
-        for (std::size_t i = 0; exact && i < g.values.size(); ++i) {
-            long r = std::lround(g.values[i] * 255.0f);
-            exact = r >= 0 && r <= 255 && static_cast<float>(r) / 255.0f == g.values[i];
-            bytes.bytes[i] = std::byte(static_cast<std::uint8_t>(exact ? r : 0));
-        }
-        if (exact) {
-            bool sparse = o.grid_format == "sparse";
-            GridWords w = sparse ? GridWords::sparse(bytes, border) : GridWords::native(bytes, border);
-            s.volume.grid_bytes = w.grid_bytes();
-            s.volume.grid_format = sparse ? "sparse-uint8" : "uint8";
-            return w;
-        }
+    if ((o.grid_format == "native" || o.grid_format == "sparse") && raw) {
+        bool sparse = o.grid_format == "sparse";
+        GridWords w = sparse ? GridWords::sparse(*raw, border) : GridWords::native(*raw, border);
+        s.volume.grid_bytes = w.grid_bytes();
+        s.volume.grid_format = std::string(sparse ? "sparse-" : "") + volume::scalar_name(raw->type);
+        return w;
     }
     GridWords w = GridWords::from(g, border);
     s.volume.grid_bytes = w.grid_bytes();
@@ -180,15 +169,15 @@ BuiltLod build_lod(const Options& o, const volume::DensityGrid& g, ThreadPool& p
     return out;
 }
 
-Frame render(const Options& o, const volume::DensityGrid& g, const BuiltLod& lod, const VolumeRenderParams& p,
-             ThreadPool& pool, Stats& s) {
+Frame render(const Options& o, const volume::DensityGrid& g, const volume::Volume* raw, const BuiltLod& lod,
+             const VolumeRenderParams& p, ThreadPool& pool, Stats& s) {
     std::string& device = s.device;
     if (p.mode != VolumeMode::DvrReference && lod.words.empty()) {  // no element: nothing to traverse
         device = "host, nothing traversed (no element)";
         return blank_frame(p.width, p.height);
     }
     std::optional<GridWords> grid;
-    if (p.mode == VolumeMode::DvrReference) grid = render_grid(o, g, s);
+    if (p.mode == VolumeMode::DvrReference) grid = render_grid(o, g, raw, s);
     VoxelBihView view{lod.words, lod.ranges, g.spacing, g.world_box()};
     if (o.backend == "cpu") {
         device = "host, " + std::to_string(pool.concurrency()) + " threads";
@@ -271,10 +260,12 @@ int run_volume(const Options& o) {
     s.camera = o.camera;
     if (o.octree_index() && is_store_path(o.volume)) return run_store_volume(o, s);  // out of core from disk
     ThreadPool pool(o.threads);
-    volume::DensityGrid g = load_grid(o, pool, s);
+    std::optional<volume::Volume> raw;
+    volume::DensityGrid g = load_grid(o, pool, s, raw);
+    const volume::Volume* native = raw ? &*raw : nullptr;
     VolumeRenderParams p = render_params(o, g);
-    if (o.kd_index()) return run_kd_volume(o, g, p, pool, s);
-    if (o.ikd_index()) return run_ikd_volume(o, g, p, pool, s);
+    if (o.kd_index()) return run_kd_volume(o, g, native, p, pool, s);
+    if (o.ikd_index()) return run_ikd_volume(o, g, native, p, pool, s);
     if (o.octree_index()) return run_octree_volume(o, g, p, pool, s);
     BuiltLod lod;
     if (o.index == "bih") lod = build_lod(o, g, pool, s);
@@ -286,7 +277,7 @@ int run_volume(const Options& o) {
     v.grid = std::to_string(g.dims.x) + "x" + std::to_string(g.dims.y) + "x" + std::to_string(g.dims.z);
     v.voxels = g.values.size();
     v.grid_bytes_16bit = g.values.size() * 2;
-    Frame f = render(o, g, lod, p, pool, s);
+    Frame f = render(o, g, native, lod, p, pool, s);
     if (o.index == "none" && s.volume.grid_bytes != 0) s.bytes = s.volume.grid_bytes;  // the words the marcher read
     write_frame(o.output, f, vec3(0.0f));
     if (!o.heatmap.empty()) s.heatmap_peak = write_heatmap(o.heatmap, f);

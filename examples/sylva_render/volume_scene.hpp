@@ -31,12 +31,14 @@ sylva::Frame blank_frame(std::uint32_t width, std::uint32_t height);
 void warn_if_nothing_visible(const Options& o, const Stats& s, const sylva::volume::DensityGrid& g,
                              const sylva::VolumeRenderParams& p, std::ostream& err);
 
-/// The grid words the marcher and ESS DVR read (--border, --grid): with --grid native a density
-/// grid whose every value is exactly v / 255 for a byte v (uint8 data over 0..255, not
-/// resampled) goes back to 1 byte a voxel (GridWords::native; verified value by value, else the
-/// float words); --grid sparse the same bytes in 8^3 bricks, uniform ones held in the brick
-/// table (GridWords::sparse); the stats get grid_bytes, grid_format and border.
-sylva::GridWords render_grid(const Options& o, const sylva::volume::DensityGrid& g, Stats& s);
+/// The grid words the marcher, the ESS DVR and the implicit kd-tree read (--border, --grid):
+/// with --grid native the file's uint8 / uint16 voxels as read (`raw`: 1 / 2 bytes a voxel,
+/// GridWords::native, normalised on the fly to the densities of `g`); --grid sparse the same in
+/// 8^3 bricks, uniform ones held in the brick table (GridWords::sparse); else, and for
+/// procedural, float32 or resampled volumes (raw null), the float words of `g`. The stats get
+/// grid_bytes, grid_format (uint8, uint16, sparse-uint8, ..., float32) and border.
+sylva::GridWords render_grid(const Options& o, const sylva::volume::DensityGrid& g, const sylva::volume::Volume* raw,
+                             Stats& s);
 
 /// Reads a transfer-function file (.json, else text control points; sylva/volume/transfer_function.hpp).
 sylva::volume::TransferFunction read_tf_file(const std::string& path);
