@@ -9,6 +9,11 @@
 //    a plain march and the ESS kd-tree (EssRebuilder, deep config) skipping, with the shared
 //    per-sample functions of the renderers (sylva_grid_sample, the kd iterator and leaf spans of
 //    kd_dvr.h, the lattice and compositing of dvr_common.h).
+// The same two sylva renderers once more through the public renderer API, as an embedding
+// renderer calls them (rows sylva-api-plain, sylva-api-kd): render_dvr_cpu / render_kd_dvr_cpu
+// with the bench's rays as a PixelRays buffer, the analytic TF as a host hook (TfKind::Hook),
+// OpacityCorrection::None, dt = 1; their images must equal the hand loops' bit for bit (the
+// bench stops otherwise). Their steps per ray are the renderers' (Frame::steps), samples 0.
 // Same rays for all: an orthographic camera (one ray a pixel, pixels one voxel apart on an image
 // plane in front of the volume), a 1-voxel lattice t_k = k fixed to the image plane, samples
 // only inside the volume's box [0, dims], outside the data reading 0. Same analytic transfer
@@ -113,7 +118,10 @@ struct Rays {
 
 /// Orthographic rays one voxel apart on a plane in front of the volume, looking along `view`.
 Rays ortho_rays(volume::Dims dims, vec3 view) {
-    vec3 d = glm::normalize(view);
+    // A unit direction the renderers' own normalisation (sylva_dvr_unit) leaves unchanged, so the
+    // renderer API rows march the hand loops' t bit for bit.
+    vec3 d = shared::sylva_dvr_unit(view);
+    for (int i = 0; i < 8 && shared::sylva_dvr_unit(d) != d; ++i) d = shared::sylva_dvr_unit(d);
     vec3 up = std::abs(d.y) < 0.9f ? vec3(0, 1, 0) : vec3(1, 0, 0);
     vec3 u = glm::normalize(glm::cross(d, up)), v = glm::cross(u, d);
     vec3 c = vec3(dims) * 0.5f;
@@ -453,6 +461,47 @@ struct Row {
     Diff diff;
 };
 
+/// The bench's rays as a renderer's VolumeRenderParams: a ray buffer, the analytic TF as a host
+/// hook, no opacity correction, the 1-voxel lattice, early termination at kAlphaStop.
+VolumeRenderParams api_params(const Rays& rays) {
+    VolumeRenderParams p;
+    p.width = rays.width;
+    p.height = rays.height;
+    std::vector<float> buf(rays.origin.size() * 6);
+    for (std::size_t i = 0; i < rays.origin.size(); ++i) {
+        const vec3& o = rays.origin[i];
+        float* r = &buf[i * 6];
+        r[0] = o.x, r[1] = o.y, r[2] = o.z, r[3] = rays.dir.x, r[4] = rays.dir.y, r[5] = rays.dir.z;
+    }
+    p.rays = PixelRays::from_buffer(std::move(buf));
+    p.tf_kind = TfKind::Hook;
+    p.tf_hook = analytic_tf;
+    p.opacity = OpacityCorrection::None;
+    p.dt = kDt;
+    p.unit = kDt;
+    p.alpha_stop = kAlphaStop;
+    return p;
+}
+
+/// Times a renderer of the public API (`frame()` -> Frame) as timed() does; the image and the
+/// steps come back as an Image.
+template <class F>
+Image timed_api(std::size_t runs, double pixels, double& rays_per_s, F&& frame) {
+    frame();  // warm-up
+    std::vector<double> ms;
+    Frame f;
+    for (std::size_t r = 0; r < runs; ++r) {
+        f = frame();
+        ms.push_back(f.ms);
+    }
+    rays_per_s = pixels / (median(ms) / 1000.0);
+    Image img;
+    img.rgba = f.rgba;
+    for (std::uint32_t s : f.steps) img.steps += s;
+    img.ms = median(ms);
+    return img;
+}
+
 template <class F>
 Image timed(const Rays& rays, ThreadPool& pool, std::size_t runs, double& rays_per_s, F&& ray) {
     render(rays, pool, ray);  // warm-up (caches, page faults)
@@ -627,7 +676,29 @@ std::vector<Row> bench_volume(const Options& o, const std::string& name, const s
     Row r8 = r7;
     r8.reference = "sylva-kd";
     r8.diff = compare(sskd, skd);
-    rows = {r1, r2, r3, r4, r5, r6, r7, r8};
+    // The public renderer API over the same dense grid, tree, rays and TF.
+    VolumeRenderParams ap = api_params(rays);
+    Image aplain = timed_api(o.runs, npx, rps, [&] { return render_dvr_cpu(gw, ap, pool); });
+    Row r9 = row("sylva-api-plain", aplain, rps);
+    r9.grid_bytes = gw.grid_bytes();
+    r9.reference = "sylva-plain";
+    r9.diff = compare(aplain, splain);
+    Image akd = timed_api(o.runs, npx, rps, [&] { return render_kd_dvr_cpu(gw, kd, ap, pool); });
+    Row r10 = row("sylva-api-kd", akd, rps);
+    r10.build_cold_ms = kd_cold;
+    r10.build_warm_ms = kd_warm;
+    r10.build_peak_mb = kd_peak;
+    r10.grid_bytes = gw.grid_bytes();
+    r10.index_bytes = kd.size() * 4;
+    r10.reference = "sylva-kd";
+    r10.diff = compare(akd, skd);
+    if (r9.diff.same_bits != r9.diff.pixels || r10.diff.same_bits != r10.diff.pixels)
+        throw Error("nanovdb-bench: " + name + ": the renderer API's image differs from the per-ray loop's (" +
+                    std::to_string(r9.diff.pixels - r9.diff.same_bits) + " plain, " +
+                    std::to_string(r10.diff.pixels - r10.diff.same_bits) + " kd pixels, max |diff| " +
+                    std::to_string(r9.diff.max_abs) + ", RGBA8-identical " + std::to_string(r9.diff.same_rgba8) + " of " +
+                    std::to_string(r9.diff.pixels) + ")");
+    rows = {r1, r2, r3, r4, r5, r6, r7, r8, r9, r10};
     return rows;
 }
 
