@@ -1,6 +1,7 @@
 // Transfer functions on Vulkan (lavapipe in CI): float RGBA tables through every volume kernel,
 // the GLSL hook (the issue's analytic TF, one shared-subset text with the host's tf_hook) in a
-// user kernel of sylva/shared/dvr_main.glsl, and the opacity corrections, against the host.
+// user kernel of sylva/shared/dvr_main.glsl and of kd_dvr_main.glsl (ESS), and the opacity
+// corrections, against the host.
 #include <catch2/catch.hpp>
 
 #include <cstring>
@@ -11,6 +12,7 @@
 #include <sylva/octree/encode.hpp>
 #include <sylva/render/metrics.hpp>
 #include <sylva/spirv/test_dvr_analytic_tf.h>
+#include <sylva/spirv/test_kd_dvr_analytic_tf.h>
 #include <sylva/vulkan/kd_volume.hpp>
 #include <sylva/vulkan/octree_volume.hpp>
 #include <sylva/vulkan/volume.hpp>
@@ -62,6 +64,7 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
     std::vector<std::uint32_t> kd = kdtree::encode(kdtree::build_vidal(
         ess_occupancy(ess_codes(grid, 256u, pool), ess_classifier(tf8), pool), kdtree::Config::deep()));
     vk::DeviceKdTree dkd(ctx, kd);
+    vk::Kernel kd_hook_kernel = dkd.user_kernel(ctx, dgrid, spirv::test_kd_dvr_analytic_tf);
     octree::Tree oct = octree::build(grid, pool, {8, 2});
     std::vector<std::uint32_t> oct_words = octree::encode(oct);
     vk::DeviceOctree doct(ctx, OctreeView{oct_words, oct.bricks});
@@ -95,10 +98,12 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
             h.tf_kind = TfKind::Hook;
             h.tf_hook = [](float d) { return shared::sylva_tf_user(d); };
             check("marcher hook", render_dvr_cpu(gw, h, pool), vk::render_dvr_vulkan(ctx, dgrid, h, &hook_kernel));
+            check("kd hook", render_kd_dvr_cpu(gw, kd, h, pool), vk::render_kd_dvr_vulkan(ctx, dgrid, dkd, h, &kd_hook_kernel));
         }
     }
     VolumeRenderParams h = base;
     h.tf_kind = TfKind::Hook;
     h.tf_hook = [](float d) { return shared::sylva_tf_user(d); };
     CHECK_THROWS_WITH(vk::render_dvr_vulkan(ctx, dgrid, h), Catch::Contains("TfKind::Hook runs in your shader"));
+    CHECK_THROWS_WITH(vk::render_kd_dvr_vulkan(ctx, dgrid, dkd, h), Catch::Contains("TfKind::Hook runs in your shader"));
 }

@@ -51,6 +51,13 @@ public:
         return *kernel_;
     }
 
+    /// A kernel of your SPIR-V built from sylva/shared/kd_dvr_main.glsl (the ESS kernel's
+    /// bindings and specialization constants for this tree over `grid`, e.g. with a GLSL TF
+    /// hook, sylva/shared/tf.h), for render_kd_dvr_vulkan(ctx, grid, kd, p, &kernel).
+    [[nodiscard]] Kernel user_kernel(Context& ctx, const DeviceGrid& grid, std::span<const std::uint32_t> spirv) const {
+        return Kernel(ctx, spirv, 12, 0, constants(grid));
+    }
+
     /// Specialization constants of kd_dvr.comp: grid shift and parts, kd shift and parts,
     /// stack entries (for the tree's depth, stack_entries_for), the grid's format and border.
     [[nodiscard]] std::array<std::uint32_t, 7> constants(const DeviceGrid& grid) const {
@@ -75,20 +82,23 @@ private:
 };
 
 /// Renders `grid` with the marcher restricted to the leaves of `kd` on the device; same output
-/// as render_kd_dvr_cpu. Throws sylva::Error when the tree's grid is not the volume's.
-inline Frame render_kd_dvr_vulkan(Context& ctx, DeviceGrid& grid, DeviceKdTree& kd, const VolumeRenderParams& p) {
+/// as render_kd_dvr_cpu. With `kernel`, your build of sylva/shared/kd_dvr_main.glsl (e.g. with a
+/// TF hook; made with kd.user_kernel for this grid) runs instead of the library's kd_dvr.comp.
+/// Throws sylva::Error when the tree's grid is not the volume's.
+inline Frame render_kd_dvr_vulkan(Context& ctx, DeviceGrid& grid, DeviceKdTree& kd, const VolumeRenderParams& p,
+                                  Kernel* kernel = nullptr) {
     std::vector<std::uint32_t> params = sylva::detail::pack_dvr(grid.dims(), grid.spacing(), p);
     grid.sampling().pack(params);
     if (kd.dims() != uvec3(grid.dims()) || kd.spacing() != grid.spacing() || kd.origin() != vec3(0.0f))
         throw Error("vk::render_kd_dvr_vulkan: the kd-tree's grid (dims, spacing or origin 0) is not the volume's");
     params[34] = kd.word_count();
-    Buffer tf = detail::tf_binding(ctx, p);
+    Buffer tf = detail::tf_binding(ctx, p, kernel != nullptr);
     Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     pb.upload(params);
     Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
     std::array<Buffer*, 12> bind{grid.part(0), grid.part(1), grid.part(2), grid.part(3), kd.part(0), kd.part(1),
                                  kd.part(2),   kd.part(3),   &tf,          &pb,          &out,         &rays};
-    return detail::run_image_kernel(ctx, kd.kernel(ctx, grid), bind, out, p.width, p.height);
+    return detail::run_image_kernel(ctx, kernel ? *kernel : kd.kernel(ctx, grid), bind, out, p.width, p.height);
 }
 
 }  // namespace sylva::vk

@@ -1,0 +1,70 @@
+// sylva/shared/kd_dvr_main.glsl -- the ESS-DVR compute kernel (sylva/shared/kd_dvr.h): the
+// reference marcher's lattice samples inside the leaves of an empty-space kd-tree, front to
+// back. shaders/kd_dvr.comp is this file alone; your shader may define a transfer-function hook
+// first and include it, then run it with vk::DeviceKdTree::user_kernel and
+// vk::render_kd_dvr_vulkan(ctx, grid, kd, p, &kernel) (as sylva/shared/dvr_main.glsl for the
+// marcher):
+//
+//   #version 460
+//   #extension GL_GOOGLE_include_directive : require
+//   #define SYLVA_TF_USER                 // tf.h declares vec4 sylva_tf_user(float d)
+//   #define SYLVA_NO_TF                   // no TF table is read (lang.h supplies the loader)
+//   #include "sylva/shared/kd_dvr_main.glsl"
+//   vec4 sylva_tf_user(float d) { ... }   // or #include your shared-subset header defining it
+//
+// Bindings: 0-3 the grid's density words (SYLVA_SPLIT_WORDS); 4-7 the encoded kd-tree
+// (SYLVA_SPLIT_WORDS, sylva/shared/kd_layout.h); 8 the transfer function (sylva/shared/tf.h;
+// not declared with SYLVA_NO_TF); 9 the parameter block (sylva/shared/dvr_common.h, word 34 the
+// kd-tree's word count); 10 output, 5 words per pixel: premultiplied R, G, B, alpha (float bits)
+// and the steps (kd iterator node visits + lattice samples; 0xFFFFFFFF: corrupted encoding); 11
+// the caller's rays, 6 words a pixel (sylva/shared/rays.h; read only for SYLVA_RAYS_BUFFER, else
+// a dummy).
+// Specialization constants: 0 split shift of the grid, 1 grid parts holding data, 2 split
+// shift of the kd-tree, 3 kd-tree parts holding data (1: fast loads, SYLVA_SPLIT_WORDS_COUNTED),
+// 4 kd iterator stack entries (>= the tree's max depth).
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
+layout(constant_id = 1) const uint GRID_PARTS = 4u;
+layout(constant_id = 2) const uint KD_SHIFT = 25u;
+layout(constant_id = 3) const uint KD_PARTS = 4u;
+layout(constant_id = 4) const int STACK_SIZE = 64;
+// The grid's voxel format and border mode (vk::DeviceGrid::constants; 0xFFFFFFFF: from the
+// parameter block), fixed so that the other samplers fold away (sylva/shared/dvr_main.glsl).
+layout(constant_id = 5) const uint GRID_FORMAT = 0xFFFFFFFFu;
+layout(constant_id = 6) const uint GRID_BORDER = 0xFFFFFFFFu;
+#define SYLVA_KD_STACK_SIZE STACK_SIZE
+
+#include "sylva/shared/split_words.glsl"
+SYLVA_SPLIT_WORDS_COUNTED(grid, 0, SPLIT_SHIFT, GRID_PARTS)
+SYLVA_SPLIT_WORDS_COUNTED(words, 4, KD_SHIFT, KD_PARTS)
+layout(std430, binding = 9) readonly buffer Params { uint param_words[]; };
+layout(std430, binding = 10) writeonly buffer Pixels { uint pixels[]; };
+layout(std430, binding = 11) readonly buffer Rays { uint ray_words[]; };
+
+#ifndef SYLVA_NO_TF
+layout(std430, binding = 8) readonly buffer Tf { uint tf_words[]; };
+uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
+#endif
+uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
+
+#include "sylva/shared/rays.h"
+#include "sylva/shared/kd_dvr.h"
+
+void main() {
+    SylvaDvrParams p = sylva_dvr_params(0u);
+    if (GRID_FORMAT != 0xFFFFFFFFu) p.grid_format = GRID_FORMAT;
+    if (GRID_BORDER != 0xFFFFFFFFu) p.border = GRID_BORDER;
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= p.width || px.y >= p.height) return;
+    SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
+    uint steps;
+    uint status;
+    vec4 c = sylva_kd_dvr_march(0u, 0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps, status);
+    uint at = (px.y * p.width + px.x) * 5u;
+    pixels[at] = floatBitsToUint(c.x);
+    pixels[at + 1u] = floatBitsToUint(c.y);
+    pixels[at + 2u] = floatBitsToUint(c.z);
+    pixels[at + 3u] = floatBitsToUint(c.w);
+    pixels[at + 4u] = (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps;
+}
