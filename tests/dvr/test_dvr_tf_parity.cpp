@@ -1,7 +1,7 @@
 // Transfer functions on Vulkan (lavapipe in CI): float RGBA tables through every volume kernel,
 // the GLSL hook (the issue's analytic TF, one shared-subset text with the host's tf_hook) in a
-// user kernel of sylva/shared/dvr_main.glsl and of kd_dvr_main.glsl (ESS), and the opacity
-// corrections, against the host.
+// user kernel of sylva/shared/dvr_main.glsl, kd_dvr_main.glsl (ESS) and bih_dvr_main.glsl
+// (BIH-DVR, its three modes), and the opacity corrections, against the host.
 #include <catch2/catch.hpp>
 
 #include <cstring>
@@ -13,6 +13,7 @@
 #include <sylva/render/metrics.hpp>
 #include <sylva/spirv/test_dvr_analytic_tf.h>
 #include <sylva/spirv/test_kd_dvr_analytic_tf.h>
+#include <sylva/spirv/test_bih_dvr_analytic_tf.h>
 #include <sylva/vulkan/kd_volume.hpp>
 #include <sylva/vulkan/octree_volume.hpp>
 #include <sylva/vulkan/volume.hpp>
@@ -65,6 +66,10 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
         ess_occupancy(ess_codes(grid, 256u, pool), ess_classifier(tf8), pool), kdtree::Config::deep()));
     vk::DeviceKdTree dkd(ctx, kd);
     vk::Kernel kd_hook_kernel = dkd.user_kernel(ctx, dgrid, spirv::test_kd_dvr_analytic_tf);
+    auto bih = encode_voxels(grid_cuboids(grid, 0.05f), bih::NodeFormat::Fixed16);
+    VoxelBihView view{bih, {}, spacing, grid.world_box()};
+    vk::DeviceVoxelBih dbih(ctx, view);
+    vk::Kernel bih_hook_kernel = dbih.user_kernel(ctx, spirv::test_bih_dvr_analytic_tf);
     octree::Tree oct = octree::build(grid, pool, {8, 2});
     std::vector<std::uint32_t> oct_words = octree::encode(oct);
     vk::DeviceOctree doct(ctx, OctreeView{oct_words, oct.bricks});
@@ -99,6 +104,11 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
             h.tf_hook = [](float d) { return shared::sylva_tf_user(d); };
             check("marcher hook", render_dvr_cpu(gw, h, pool), vk::render_dvr_vulkan(ctx, dgrid, h, &hook_kernel));
             check("kd hook", render_kd_dvr_cpu(gw, kd, h, pool), vk::render_kd_dvr_vulkan(ctx, dgrid, dkd, h, &kd_hook_kernel));
+            for (VolumeMode m : {VolumeMode::BihSingle, VolumeMode::BihMulti}) {
+                VolumeRenderParams q = h;
+                q.mode = m;
+                check("bih hook", render_bih_dvr_cpu(view, q, pool), vk::render_bih_dvr_vulkan(ctx, dbih, q, &bih_hook_kernel));
+            }
         }
     }
     VolumeRenderParams h = base;
@@ -106,4 +116,6 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
     h.tf_hook = [](float d) { return shared::sylva_tf_user(d); };
     CHECK_THROWS_WITH(vk::render_dvr_vulkan(ctx, dgrid, h), Catch::Contains("TfKind::Hook runs in your shader"));
     CHECK_THROWS_WITH(vk::render_kd_dvr_vulkan(ctx, dgrid, dkd, h), Catch::Contains("TfKind::Hook runs in your shader"));
+    h.mode = VolumeMode::BihSingle;
+    CHECK_THROWS_WITH(vk::render_bih_dvr_vulkan(ctx, dbih, h), Catch::Contains("TfKind::Hook runs in your shader"));
 }

@@ -105,6 +105,12 @@ public:
         auto c = bih_.constants();
         return {c[0], c[1], ranges_.shift, used_parts(word_count_, c[0]), used_parts(range_count_, ranges_.shift)};
     }
+    /// A kernel of your SPIR-V built from sylva/shared/bih_dvr_main.glsl (the BIH-DVR kernel's
+    /// bindings and specialization constants, e.g. with a GLSL TF hook, sylva/shared/tf.h), for
+    /// render_bih_dvr_vulkan(ctx, bih, p, &kernel).
+    [[nodiscard]] Kernel user_kernel(Context& ctx, std::span<const std::uint32_t> spirv) const {
+        return Kernel(ctx, spirv, 12, 0, constants());
+    }
     /// The BIH-DVR kernel for this BIH, built on first use and kept (see DeviceGrid::kernel).
     Kernel& kernel(Context& ctx) {
         if (!kernel_) kernel_.emplace(ctx, spirv::bih_dvr, 12, 0, constants());
@@ -162,17 +168,20 @@ inline Frame render_dvr_vulkan(Context& ctx, DeviceGrid& grid, const VolumeRende
     return detail::run_image_kernel(ctx, kernel ? *kernel : grid.kernel(ctx), bind, out, p.width, p.height);
 }
 
-/// Renders a voxel BIH in mode p.mode on the device; same output as render_bih_dvr_cpu.
-inline Frame render_bih_dvr_vulkan(Context& ctx, DeviceVoxelBih& bih, const VolumeRenderParams& p) {
+/// Renders a voxel BIH in mode p.mode on the device; same output as render_bih_dvr_cpu. With
+/// `kernel`, your build of sylva/shared/bih_dvr_main.glsl (e.g. with a TF hook; made with
+/// bih.user_kernel) runs instead of the library's bih_dvr.comp.
+inline Frame render_bih_dvr_vulkan(Context& ctx, DeviceVoxelBih& bih, const VolumeRenderParams& p,
+                                   Kernel* kernel = nullptr) {
     std::vector<std::uint32_t> params = bih.params(p);
-    Buffer tf = detail::tf_binding(ctx, p);
+    Buffer tf = detail::tf_binding(ctx, p, kernel != nullptr);
     Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     pb.upload(params);
     Buffer rays = detail::ray_binding(ctx, p.camera, p.rays, p.width, p.height);
     std::array<Buffer*, 12> bind{bih.part(0),       bih.part(1),       bih.part(2),       bih.part(3),
                                  bih.range_part(0), bih.range_part(1), bih.range_part(2), bih.range_part(3),
                                  &tf,               &pb,               &out,              &rays};
-    return detail::run_image_kernel(ctx, bih.kernel(ctx), bind, out, p.width, p.height);
+    return detail::run_image_kernel(ctx, kernel ? *kernel : bih.kernel(ctx), bind, out, p.width, p.height);
 }
 
 }  // namespace sylva::vk

@@ -1,0 +1,56 @@
+// sylva/shared/bih_dvr_main.glsl -- the BIH-DVR compute kernel (sylva/shared/bih_dvr.h):
+// single-sample, multi-sample and iso modes over a voxel-cuboid BIH, the mode chosen by the
+// parameter block. shaders/bih_dvr.comp is this file alone; your shader may define a transfer-
+// function hook first and include it, then run it with vk::DeviceVoxelBih::user_kernel and
+// vk::render_bih_dvr_vulkan(ctx, bih, p, &kernel) (as sylva/shared/dvr_main.glsl for the
+// marcher: #define SYLVA_TF_USER and SYLVA_NO_TF, include this file, define sylva_tf_user).
+//
+// Bindings: 0-3 the encoded BIH (SYLVA_SPLIT_WORDS); 4-7 the node-range buffer, one word per
+// encoded node (SYLVA_SPLIT_WORDS; dummies when iso culling is off); 8 the transfer function
+// (sylva/shared/tf.h; not declared with SYLVA_NO_TF); 9 the parameter block
+// (sylva/shared/dvr_common.h); 10 output, 5 words per pixel: premultiplied R, G, B, alpha
+// (float bits) and the iterator's step count (0xFFFFFFFF: corrupted encoding); 11 the caller's
+// rays, 6 words a pixel (sylva/shared/rays.h; read only for SYLVA_RAYS_BUFFER, else a dummy).
+// Specialization constants: 0 split shift of the BIH, 1 stack entries (>= the tree's max
+// depth), 2 split shift of the node ranges, 3 and 4 parts holding data of the BIH and of the
+// ranges (1: fast loads, see SYLVA_SPLIT_WORDS_COUNTED).
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
+layout(constant_id = 1) const int STACK_SIZE = 64;
+layout(constant_id = 2) const uint RANGES_SHIFT = 25u;
+layout(constant_id = 3) const uint WORD_PARTS = 4u;
+layout(constant_id = 4) const uint RANGE_PARTS = 4u;
+#define SYLVA_BIH_STACK_SIZE STACK_SIZE
+
+#include "sylva/shared/split_words.glsl"
+SYLVA_SPLIT_WORDS_COUNTED(words, 0, SPLIT_SHIFT, WORD_PARTS)
+SYLVA_SPLIT_WORDS_COUNTED(ranges, 4, RANGES_SHIFT, RANGE_PARTS)
+layout(std430, binding = 9) readonly buffer Params { uint param_words[]; };
+layout(std430, binding = 10) writeonly buffer Pixels { uint pixels[]; };
+layout(std430, binding = 11) readonly buffer Rays { uint ray_words[]; };
+
+#ifndef SYLVA_NO_TF
+layout(std430, binding = 8) readonly buffer Tf { uint tf_words[]; };
+uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
+#endif
+uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
+uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
+
+#include "sylva/shared/rays.h"
+#include "sylva/shared/bih_dvr.h"
+
+void main() {
+    SylvaDvrParams p = sylva_dvr_params(0u);
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= p.width || px.y >= p.height) return;
+    SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
+    uint steps;
+    uint status;
+    vec4 c = sylva_bih_volume_ray(0u, 0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps, status);
+    uint at = (px.y * p.width + px.x) * 5u;
+    pixels[at] = floatBitsToUint(c.x);
+    pixels[at + 1u] = floatBitsToUint(c.y);
+    pixels[at + 2u] = floatBitsToUint(c.z);
+    pixels[at + 3u] = floatBitsToUint(c.w);
+    pixels[at + 4u] = (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps;
+}
