@@ -32,16 +32,12 @@ layout(constant_id = 3) const uint GRID_BORDER = 0xFFFFFFFFu;
 
 #include "sylva/shared/split_words.glsl"
 SYLVA_SPLIT_WORDS_COUNTED(grid, 0, SPLIT_SHIFT, GRID_PARTS)
-layout(std430, binding = 5) readonly buffer Params { uint param_words[]; };
-layout(std430, binding = 6) writeonly buffer Pixels { uint pixels[]; };
-layout(std430, binding = 7) readonly buffer Rays { uint ray_words[]; };
 
-#ifndef SYLVA_NO_TF
-layout(std430, binding = 4) readonly buffer Tf { uint tf_words[]; };
-uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
-#endif
-uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
-uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
+#define SYLVA_IO_TF_BINDING 4
+#define SYLVA_IO_PARAMS_BINDING 5
+#define SYLVA_IO_PIXELS_BINDING 6
+#define SYLVA_IO_RAYS_BINDING 7
+#include "sylva/shared/dvr_kernel_io.glsl"
 
 #include "sylva/shared/rays.h"
 #include "sylva/shared/dvr.h"
@@ -55,10 +51,5 @@ void main() {
     SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
     uint steps;
     vec4 c = sylva_dvr_march(0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps);
-    uint at = (px.y * p.width + px.x) * 5u;
-    pixels[at] = floatBitsToUint(c.x);
-    pixels[at + 1u] = floatBitsToUint(c.y);
-    pixels[at + 2u] = floatBitsToUint(c.z);
-    pixels[at + 3u] = floatBitsToUint(c.w);
-    pixels[at + 4u] = steps;
+    sylva_io_store_pixel(px, p.width, c, steps);
 }

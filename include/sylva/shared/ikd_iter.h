@@ -338,15 +338,24 @@ SYLVA_FN void sylva_ikd_descend(SYLVA_INOUT(SylvaIkdIter) it, uint entry) {
     }
 }
 
-/// The eight corner densities of cell c of a float32 grid of `cells` cells: lo = the z = c.z face
-/// ((0,0), (1,0), (0,1), (1,1) in x, y), hi = the z = c.z + 1 face in the same order. One index
-/// is computed and the others are offsets from it (the header check keeps the grid's sample
-/// count below 2^32, so none wraps).
-SYLVA_FN_HOT void sylva_ikd_corners(SYLVA_BUF(grid), uvec3 cells, uvec3 c, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
-    uint gx = cells.x + 1u;
+/// Sample indices of cell c's corners in a grid of `cells` cells: i the (0, 0, 0) corner, j = the
+/// (0, 0, 1) corner, gx the samples per row (the other corners are offsets 1, gx, gx + 1 from
+/// them). The header check keeps the grid's sample count below 2^32, so none wraps.
+SYLVA_FN_HOT void sylva_ikd_corner_index(uvec3 cells, uvec3 c, SYLVA_OUT(uint) gx, SYLVA_OUT(uint) i, SYLVA_OUT(uint) j) {
+    gx = cells.x + 1u;
     uint gxy = gx * (cells.y + 1u);
-    uint i = c.x + gx * c.y + gxy * c.z;
-    uint j = i + gxy;
+    i = c.x + gx * c.y + gxy * c.z;
+    j = i + gxy;
+}
+
+/// The eight corner densities of cell c of a float32 grid of `cells` cells: lo = the z = c.z face
+/// ((0,0), (1,0), (0,1), (1,1) in x, y), hi = the z = c.z + 1 face in the same order
+/// (indices: sylva_ikd_corner_index).
+SYLVA_FN_HOT void sylva_ikd_corners(SYLVA_BUF(grid), uvec3 cells, uvec3 c, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
+    uint gx;
+    uint i;
+    uint j;
+    sylva_ikd_corner_index(cells, c, gx, i, j);
     lo = vec4(uintBitsToFloat(SYLVA_LOAD(grid, i)), uintBitsToFloat(SYLVA_LOAD(grid, i + 1u)),
               uintBitsToFloat(SYLVA_LOAD(grid, i + gx)), uintBitsToFloat(SYLVA_LOAD(grid, i + gx + 1u)));
     hi = vec4(uintBitsToFloat(SYLVA_LOAD(grid, j)), uintBitsToFloat(SYLVA_LOAD(grid, j + 1u)),
@@ -378,10 +387,10 @@ SYLVA_FN uint sylva_ikd_umax(uint a, uint b) { return (b > a) ? b : a; }
 SYLVA_FN_HOT bool sylva_ikd_cell_holds_raw(SYLVA_BUF(grid), SYLVA_IN(SylvaIkdHeader) h, uvec3 c, uvec4 raw_at_most,
                                              uvec4 raw_below, SYLVA_OUT(vec4) lo, SYLVA_OUT(vec4) hi) {
     uint f = h.grid_format;
-    uint gx = h.cells.x + 1u;
-    uint gxy = gx * (h.cells.y + 1u);
-    uint i = c.x + gx * c.y + gxy * c.z;
-    uint j = i + gxy;
+    uint gx;
+    uint i;
+    uint j;
+    sylva_ikd_corner_index(h.cells, c, gx, i, j);
     uvec4 a = uvec4(sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i), sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i + 1u),
                     sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i + gx), sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, i + gx + 1u));
     uvec4 b = uvec4(sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, j), sylva_ikd_raw(SYLVA_PASS_BUF(grid), f, j + 1u),

@@ -37,16 +37,12 @@ layout(constant_id = 6) const uint GRID_BORDER = 0xFFFFFFFFu;
 #include "sylva/shared/split_words.glsl"
 SYLVA_SPLIT_WORDS_COUNTED(grid, 0, SPLIT_SHIFT, GRID_PARTS)
 SYLVA_SPLIT_WORDS_COUNTED(words, 4, KD_SHIFT, KD_PARTS)
-layout(std430, binding = 9) readonly buffer Params { uint param_words[]; };
-layout(std430, binding = 10) writeonly buffer Pixels { uint pixels[]; };
-layout(std430, binding = 11) readonly buffer Rays { uint ray_words[]; };
 
-#ifndef SYLVA_NO_TF
-layout(std430, binding = 8) readonly buffer Tf { uint tf_words[]; };
-uint sylva_load_tf(uint i) { return i < uint(tf_words.length()) ? tf_words[i] : 0u; }
-#endif
-uint sylva_load_params(uint i) { return i < uint(param_words.length()) ? param_words[i] : 0u; }
-uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
+#define SYLVA_IO_TF_BINDING 8
+#define SYLVA_IO_PARAMS_BINDING 9
+#define SYLVA_IO_PIXELS_BINDING 10
+#define SYLVA_IO_RAYS_BINDING 11
+#include "sylva/shared/dvr_kernel_io.glsl"
 
 #include "sylva/shared/rays.h"
 #include "sylva/shared/kd_dvr.h"
@@ -61,10 +57,5 @@ void main() {
     uint steps;
     uint status;
     vec4 c = sylva_kd_dvr_march(0u, 0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps, status);
-    uint at = (px.y * p.width + px.x) * 5u;
-    pixels[at] = floatBitsToUint(c.x);
-    pixels[at + 1u] = floatBitsToUint(c.y);
-    pixels[at + 2u] = floatBitsToUint(c.z);
-    pixels[at + 3u] = floatBitsToUint(c.w);
-    pixels[at + 4u] = (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps;
+    sylva_io_store_pixel(px, p.width, c, (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps);
 }
