@@ -216,15 +216,17 @@ void time_round_robin(std::vector<Contender>& cs, std::size_t runs, const IsoRen
     }
 }
 
-/// A contender rendering through render_iso_cpu (walker w) or its packet twin.
+/// A contender rendering through render_iso_cpu (walker w; lanes 0) or its packet twin with
+/// packets of `lanes` (4 or 8) rays.
 Contender iso_contender(std::string impl, const std::vector<std::uint32_t>& words, const GridWords& gw,
-                        IsoRenderParams p, IsoWalker w, ThreadPool& pool, bool packets = false) {
+                        IsoRenderParams p, IsoWalker w, ThreadPool& pool, int lanes = 0) {
     p.walker = w;
     Contender k;
     k.impl = std::move(impl);
-    k.packets = packets;
-    k.render = [&words, &gw, p, &pool, packets](IsoCounters& n) {
-        return packets ? render_iso_cpu_packets(words, gw, p, pool, &n) : render_iso_cpu(words, gw, p, pool, &n);
+    k.packets = lanes != 0;
+    PacketLanes width = lanes == 16 ? PacketLanes::Sixteen : lanes == 8 ? PacketLanes::Eight : PacketLanes::Four;
+    k.render = [&words, &gw, p, &pool, lanes, width](IsoCounters& n) {
+        return lanes != 0 ? render_iso_cpu_packets(words, gw, p, pool, &n, width) : render_iso_cpu(words, gw, p, pool, &n);
     };
     return k;
 }
@@ -532,9 +534,11 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
                                                                 static_cast<std::uint32_t>(gw.words.size()));
     std::vector<Contender> cs;
     cs.push_back(iso_contender(names[0], words[0], gw, p, IsoWalker::Tree, pool));
-    cs.push_back(iso_contender("implicit-kd-packet", words[0], gw, p, IsoWalker::Tree, pool, true));
+    cs.push_back(iso_contender("implicit-kd-packet", words[0], gw, p, IsoWalker::Tree, pool, 4));
+    cs.push_back(iso_contender("implicit-kd-packet8", words[0], gw, p, IsoWalker::Tree, pool, 8));
+    cs.push_back(iso_contender("implicit-kd-packet16", words[0], gw, p, IsoWalker::Tree, pool, 16));
     cs.push_back(iso_contender(names[1], words[1], gw, p, IsoWalker::Tree, pool));
-    cs.push_back(iso_contender(alt + "-packet", words[1], gw, p, IsoWalker::Tree, pool, true));
+    cs.push_back(iso_contender(alt + "-packet", words[1], gw, p, IsoWalker::Tree, pool, 4));
     cs.push_back(iso_contender(names[2], words[2], gw, p, IsoWalker::Tree, pool));
     cs.push_back(iso_contender("dda", words[2], gw, p, IsoWalker::Dda, pool));
     // The 8-bit volumes read natively (GridWords::native: 1 byte a sample, normalised on the fly,
@@ -545,7 +549,8 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
         out.push_back({c, "grid-float32", "grid_bytes", double(gw.grid_bytes()), "bytes"});
         out.push_back({c, "grid-uint8", "grid_bytes", double(native->grid_bytes()), "bytes"});
         cs.push_back(iso_contender(names[0] + "-u8grid", words[0], *native, p, IsoWalker::Tree, pool));
-        cs.push_back(iso_contender("implicit-kd-packet-u8grid", words[0], *native, p, IsoWalker::Tree, pool, true));
+        cs.push_back(iso_contender("implicit-kd-packet-u8grid", words[0], *native, p, IsoWalker::Tree, pool, 4));
+        cs.push_back(iso_contender("implicit-kd-packet8-u8grid", words[0], *native, p, IsoWalker::Tree, pool, 8));
         cs.push_back(iso_contender("dda-u8grid", words[2], *native, p, IsoWalker::Dda, pool));
     }
     const std::size_t trees = cs.size();

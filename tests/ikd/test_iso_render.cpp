@@ -171,28 +171,42 @@ TEST_CASE("iso rendering: isovalues outside the data give an empty image; bad pa
     for (const vec4& c : f.rgba) CHECK(c.w == 0.0f);
 }
 
-TEST_CASE("iso rendering: 2x2 packets give the single-ray image bit for bit, in fewer steps", "[ikd][iso][packet]") {
+TEST_CASE("iso rendering: packets of 4, 8 and 16 rays give the single-ray image bit for bit, in fewer steps",
+          "[ikd][iso][packet]") {
     ThreadPool pool(2);
+    const PacketLanes widths[] = {PacketLanes::Four, PacketLanes::Eight, PacketLanes::Sixteen};
     for (std::uint32_t bricks : {0u, 6u}) {
         volume::DensityGrid g = volume::marschner_lobb({41, 37, 29});
         std::vector<std::uint32_t> words = ikd::encode(ikd::build(g, ikd::Config{bricks}));
         GridWords gw = GridWords::from(g);
-        IsoRenderParams p;
-        p.width = 97;  // odd sizes: partial tiles at the right and bottom edges
-        p.height = 71;
-        p.camera = Camera::framing(g.world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(p.width, p.height);
-        p.isos = {{0.3f, vec4(0.2f, 0.6f, 0.9f, 0.35f)}, {0.6f, vec4(0.9f, 0.8f, 0.6f, 1.0f)}};
-        IsoCounters single_n, packet_n;
-        Frame single = render_iso_cpu(words, gw, p, pool, &single_n);
-        Frame packet = render_iso_cpu_packets(words, gw, p, pool, &packet_n);
-        CHECK(bits_of(single) == bits_of(packet));
-        CHECK(single_n.cells == packet_n.cells);
-        CHECK(single_n.hits == packet_n.hits);
-        CHECK(packet_n.steps < single_n.steps);
-        CHECK(packet_n.steps * 4 >= single_n.steps);  // at most 4 rays share a step
-        // Each active lane of a packet step is one of the single rays' steps.
-        CHECK(packet_n.lane_steps == single_n.steps);
-        CHECK(packet_n.lane_steps > packet_n.steps);
+        for (RaySource source : {RaySource::Pinhole, RaySource::Ortho}) {
+            IsoRenderParams p;
+            p.width = 97;  // odd sizes: partial tiles at the right and bottom edges
+            p.height = 71;
+            Camera cam = Camera::framing(g.world_box(), vec3(0.4f, 0.3f, 1.0f));
+            p.camera = source == RaySource::Ortho ? cam.ortho_frame(p.width, p.height, 0.5f * glm::length(g.world_box().extent()))
+                                                  : cam.frame(p.width, p.height);
+            p.rays.source = source;  // the packets compute these rays four lanes at a time
+            p.isos = {{0.3f, vec4(0.2f, 0.6f, 0.9f, 0.35f)}, {0.6f, vec4(0.9f, 0.8f, 0.6f, 1.0f)}};
+            IsoCounters single_n;
+            Frame single = render_iso_cpu(words, gw, p, pool, &single_n);
+            REQUIRE(single_n.hits > 100u);
+            std::uint64_t previous_steps = single_n.steps;
+            for (PacketLanes lanes : widths) {
+                INFO("bricks " << bricks << ", ortho " << (source == RaySource::Ortho) << ", lanes " << std::uint32_t(lanes));
+                IsoCounters packet_n;
+                Frame packet = render_iso_cpu_packets(words, gw, p, pool, &packet_n, lanes);
+                CHECK(bits_of(single) == bits_of(packet));
+                CHECK(single_n.cells == packet_n.cells);
+                CHECK(single_n.hits == packet_n.hits);
+                CHECK(packet_n.steps < previous_steps);  // wider packets: fewer steps
+                CHECK(packet_n.steps * std::uint32_t(lanes) >= single_n.steps);  // at most `lanes` rays share a step
+                // Each active lane of a packet step is one of the single rays' steps.
+                CHECK(packet_n.lane_steps == single_n.steps);
+                CHECK(packet_n.lane_steps > packet_n.steps);
+                previous_steps = packet_n.steps;
+            }
+        }
     }
     // A camera inside the volume: the directions of a tile differ in sign and fall back to single rays.
     volume::DensityGrid g = volume::marschner_lobb({21, 21, 21});
@@ -203,7 +217,8 @@ TEST_CASE("iso rendering: 2x2 packets give the single-ray image bit for bit, in 
     p.height = 32;
     p.camera = Camera{vec3(10.5f), vec3(10.5f, 10.5f, 20.0f), vec3(0.0f, 1.0f, 0.0f), 90.0f}.frame(32, 32);
     p.isos = {{0.5f, vec4(1.0f)}};
-    CHECK(bits_of(render_iso_cpu(words, gw, p, pool)) == bits_of(render_iso_cpu_packets(words, gw, p, pool)));
+    for (PacketLanes lanes : widths)
+        CHECK(bits_of(render_iso_cpu(words, gw, p, pool)) == bits_of(render_iso_cpu_packets(words, gw, p, pool, nullptr, lanes)));
 }
 
 namespace {
@@ -229,14 +244,15 @@ std::vector<LaneCell> single_cells(const std::vector<std::uint32_t>& words, cons
 
 }  // namespace
 
-TEST_CASE("ikd packets: each lane's cells and interval bits are its single ray's, parallel lanes included", "[ikd][packet]") {
-    // Rays of one sign pattern, some lanes with +-0 direction components (parallel to an axis:
-    // the lane keeps its interval on its side of each split plane), origins on cell planes,
-    // inside and outside the grid, inactive lanes; odd dims, the slim and the bricked tree.
+namespace {
+
+/// Packets of L lanes against the single-ray iterator, lane by lane (see the test below).
+template <int L>
+void check_packet_lanes() {
     volume::DensityGrid g = volume::marschner_lobb({23, 17, 30});
     GridWords gw = GridWords::from(g);
     const vec4 isos(0.3f, 0.6f, 0.0f, 0.0f);
-    std::mt19937 rng(5);
+    std::mt19937 rng(5 + L);
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
     std::size_t lanes_checked = 0, parallel_lanes = 0, cells_seen = 0;
     for (std::uint32_t bricks : {0u, 6u}) {
@@ -246,10 +262,10 @@ TEST_CASE("ikd packets: each lane's cells and interval bits are its single ray's
                                                                     static_cast<std::uint32_t>(gw.words.size()));
         REQUIRE(hdr.valid == 1u);
         vec3 cells(hdr.cells);
-        for (int n = 0; n < 3000; ++n) {
-            ikd::RayPacket pk;
+        for (int n = 0; n < 12000 / L; ++n) {  // 3,000 packets of 4, fewer of more lanes
+            ikd::BasicRayPacket<L> pk;
             glm::bvec3 negative(u(rng) < 0.5f, u(rng) < 0.5f, u(rng) < 0.5f);
-            for (int k = 0; k < ikd::kPacketLanes; ++k) {
+            for (int k = 0; k < L; ++k) {
                 if (u(rng) < 0.1f) continue;  // inactive lane
                 pk.active |= 1u << k;
                 vec3 cell_o(u(rng) * 1.4f - 0.2f, u(rng) * 1.4f - 0.2f, u(rng) * 1.4f - 0.2f);
@@ -267,15 +283,15 @@ TEST_CASE("ikd packets: each lane's cells and interval bits are its single ray's
                 pk.t_max[k] = u(rng) < 0.2f ? pk.t_min[k] + u(rng) * 30.0f : shared::sylva_inf();
             }
             REQUIRE(ikd::same_signs(pk));
-            ikd::PacketIter it(words, gw.words, hdr, pk, isos, 2u);
-            std::array<std::vector<LaneCell>, ikd::kPacketLanes> got;
-            ikd::PacketCell c;
+            ikd::BasicPacketIter<L> it(words, gw.words, hdr, pk, isos, 2u);
+            std::array<std::vector<LaneCell>, L> got;
+            ikd::BasicPacketCell<L> c;
             while (it.next(c))
-                for (int k = 0; k < ikd::kPacketLanes; ++k)
+                for (int k = 0; k < L; ++k)
                     if (c.mask >> k & 1u)
                         got[k].push_back({c.cell, std::bit_cast<std::uint32_t>(c.t0[k]), std::bit_cast<std::uint32_t>(c.t1[k])});
             REQUIRE(it.status() == SYLVA_ITER_DONE);
-            for (int k = 0; k < ikd::kPacketLanes; ++k) {
+            for (int k = 0; k < L; ++k) {
                 if (!(pk.active >> k & 1u)) {
                     CHECK(got[k].empty());
                     continue;
@@ -290,6 +306,18 @@ TEST_CASE("ikd packets: each lane's cells and interval bits are its single ray's
     CHECK(lanes_checked > 15000);
     CHECK(parallel_lanes > 5000);
     CHECK(cells_seen > 10000);
+}
+
+}  // namespace
+
+TEST_CASE("ikd packets: each lane's cells and interval bits are its single ray's, parallel lanes included", "[ikd][packet]") {
+    // Rays of one sign pattern, some lanes with +-0 direction components (parallel to an axis:
+    // the lane keeps its interval on its side of each split plane), origins on cell planes,
+    // inside and outside the grid, inactive lanes; odd dims, the slim and the bricked tree;
+    // packets of 4, 8 and 16 rays.
+    check_packet_lanes<4>();
+    check_packet_lanes<8>();
+    check_packet_lanes<16>();
 }
 
 TEST_CASE("iso rendering: uint8 and uint16 grids read natively give the float32 grid's image, hit for hit",

@@ -202,29 +202,88 @@ Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid
 
 namespace detail {
 
-/// Shades the 2x2 tile at (x0, y0) with one packet (ikd::PacketIter); lanes outside the image
-/// stay inactive. Falls back to single rays when the directions' signs differ. Adds the packet's
+/// Pixels across the tile of a packet of L rays: 2x2 tiles for 4, 4x2 for 8, 4x4 for 16.
+constexpr int packet_tile_width(int lanes) { return lanes == 4 ? 2 : 4; }
+
+/// The camera rays (pinhole or ortho: sylva_camera_ray) of the tile at (x0, y0), directions
+/// normalised as iso_tile's caller's rays are, four lanes at a time in ikd's F4 operations: the
+/// scalar expressions' operations in the same order, so the same bits. Lanes past the image
+/// edge get rays of pixels outside it (the caller leaves them inactive).
+template <int L>
+void tile_camera_rays(const CameraFrame& cam, RaySource source, std::uint32_t x0, std::uint32_t y0, std::uint32_t width,
+                      std::uint32_t height, ikd::BasicRayPacket<L>& pk) {
+    using namespace ikd::detail;
+    constexpr int kTileWidth = packet_tile_width(L);
+    const F4 half = set4(0.5f), two = set4(2.0f), one = set4(1.0f), fw = set4(float(width)), fh = set4(float(height));
+    for (int g = 0; g < L / 4; ++g) {
+        alignas(16) float px[4], py[4];
+        for (int i = 0; i < 4; ++i) {
+            int k = 4 * g + i;
+            px[i] = float(x0 + static_cast<std::uint32_t>(k % kTileWidth));
+            py[i] = float(y0 + static_cast<std::uint32_t>(k / kTileWidth));
+        }
+        // sylva_camera_plane: sx = (x + 0.5) / width * 2 - 1, sy = 1 - (y + 0.5) / height * 2.
+        F4 sx = sub4(mul4(div4(add4(load4(px), half), fw), two), one);
+        F4 sy = sub4(one, mul4(div4(add4(load4(py), half), fh), two));
+        // a + sx u + sy v, per axis (sylva_camera_dir / sylva_camera_offset).
+        vec3 a = source == RaySource::Ortho ? cam.eye : cam.w;
+        F4 c[3];
+        for (int ax = 0; ax < 3; ++ax)
+            c[ax] = add4(add4(set4(a[ax]), mul4(sx, set4(cam.u[ax]))), mul4(sy, set4(cam.v[ax])));
+        alignas(16) float o[3][4], d[3][4];
+        if (source == RaySource::Ortho) {
+            for (int ax = 0; ax < 3; ++ax) {
+                store4(o[ax], c[ax]);
+                store4(d[ax], set4(cam.w[ax]));
+            }
+        } else {
+            for (int ax = 0; ax < 3; ++ax) {
+                store4(o[ax], set4(cam.eye[ax]));
+                store4(d[ax], c[ax]);
+            }
+        }
+        // Normalised as by the scalar path: len = sqrt(x x + y y + z z), d / len.
+        F4 dx = load4(d[0]), dy = load4(d[1]), dz = load4(d[2]);
+        F4 len = sqrt4(add4(add4(mul4(dx, dx), mul4(dy, dy)), mul4(dz, dz)));
+        store4(d[0], div4(dx, len));
+        store4(d[1], div4(dy, len));
+        store4(d[2], div4(dz, len));
+        for (int i = 0; i < 4; ++i) {
+            pk.origin[4 * g + i] = vec3(o[0][i], o[1][i], o[2][i]);
+            pk.direction[4 * g + i] = vec3(d[0][i], d[1][i], d[2][i]);
+        }
+    }
+}
+
+/// Shades the tile at (x0, y0) with one packet of L rays (ikd::BasicPacketIter<L>; a tile of 2x2
+/// pixels for 4 lanes, 4x2 for 8); lanes outside the image stay inactive. Falls back to single
+/// rays when the directions' signs differ. Adds the packet's
 /// traversal steps (or the single rays') to n.
-inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp,
-                     const shared::SylvaIkdHeader& hdr, const ikd::IsoCodes& codes, const IsoRenderParams& rp,
-                     std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
-    ikd::RayPacket pk;
-    std::array<std::size_t, ikd::kPacketLanes> at{};
-    for (int k = 0; k < ikd::kPacketLanes; ++k) {
-        std::uint32_t x = x0 + (k & 1), y = y0 + (k >> 1);
+template <int L>
+void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp,
+                     const shared::SylvaIkdHeader& hdr, const ikd::IsoCodes& codes, const ikd::Levels& levels,
+                     const IsoRenderParams& rp, std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
+    constexpr int kTileWidth = packet_tile_width(L);
+    ikd::BasicRayPacket<L> pk;
+    std::array<std::size_t, L> at{};
+    if (rp.rays.source != RaySource::Buffer) tile_camera_rays<L>(rp.camera, rp.rays.source, x0, y0, sp.width, sp.height, pk);
+    for (int k = 0; k < L; ++k) {
+        std::uint32_t x = x0 + static_cast<std::uint32_t>(k % kTileWidth), y = y0 + static_cast<std::uint32_t>(k / kTileWidth);
         if (x >= sp.width || y >= sp.height) continue;
-        Ray ray = pixel_ray(rp.camera, rp.rays, x, y, sp.width, sp.height);
-        vec3 d = ray.direction;
-        float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-        pk.origin[k] = ray.origin;
-        pk.direction[k] = vec3(d.x / len, d.y / len, d.z / len);
+        if (rp.rays.source == RaySource::Buffer) {
+            Ray ray = pixel_ray(rp.camera, rp.rays, x, y, sp.width, sp.height);
+            vec3 d = ray.direction;
+            float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+            pk.origin[k] = ray.origin;
+            pk.direction[k] = vec3(d.x / len, d.y / len, d.z / len);
+        }
         pk.t_min[k] = 0.0f;
         pk.t_max[k] = shared::sylva_inf();
         pk.active |= 1u << k;
         at[k] = std::size_t{y} * sp.width + x;
     }
     if (!ikd::same_signs(pk)) {  // single rays, as render_iso_cpu
-        for (int k = 0; k < ikd::kPacketLanes; ++k) {
+        for (int k = 0; k < L; ++k) {
             if (!(pk.active >> k & 1u)) continue;
             shared::SylvaIsoRay r = shared::sylva_iso_trace(tw, gw, sp, hdr, pk.origin[k], pk.direction[k]);
             n.lane_steps += r.steps;  // a single ray is one active lane per step
@@ -232,17 +291,17 @@ inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoP
         }
         return;
     }
-    ikd::PacketIter it({tw.data, tw.size}, {gw.data, gw.size}, hdr, pk, sp.isos, sp.iso_count, codes);
-    std::array<vec4, ikd::kPacketLanes> rgba{};
-    std::array<vec3, ikd::kPacketLanes> org{}, d{};
-    std::array<std::uint32_t, ikd::kPacketLanes> hits{};
-    for (int k = 0; k < ikd::kPacketLanes; ++k) {  // the cell-space ray (sylva_ray_to_grid's, as the single path)
+    ikd::BasicPacketIter<L> it({tw.data, tw.size}, {gw.data, gw.size}, hdr, pk, sp.isos, sp.iso_count, codes, levels);
+    std::array<vec4, L> rgba{};
+    std::array<vec3, L> org{}, d{};
+    std::array<std::uint32_t, L> hits{};
+    for (int k = 0; k < L; ++k) {  // the cell-space ray (sylva_ray_to_grid's, as the single path)
         org[k] = it.lane_origin(k);
         d[k] = pk.direction[k] * hdr.inv_spacing;
     }
-    ikd::PacketCell c;
+    ikd::BasicPacketCell<L> c;
     while (it.next(c)) {
-        for (int k = 0; k < ikd::kPacketLanes; ++k) {
+        for (int k = 0; k < L; ++k) {
             // Lanes done (opacity reached) take no more cells, as the single path stops; cells only
             // touched (length 0) are skipped, as there.
             if (!(c.mask >> k & 1u) || !(rgba[k].w < sp.alpha_stop) || !(c.t0[k] < c.t1[k])) continue;
@@ -252,7 +311,7 @@ inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoP
             if (!(rgba[k].w < sp.alpha_stop)) it.clip(k, -shared::sylva_inf());
         }
     }
-    for (int k = 0; k < ikd::kPacketLanes; ++k) {
+    for (int k = 0; k < L; ++k) {
         if (!(pk.active >> k & 1u)) continue;
         f.rgba[at[k]] = rgba[k];
         f.steps[at[k]] = it.status() == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : it.steps();
@@ -265,13 +324,36 @@ inline void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoP
 
 }  // namespace detail
 
-/// render_iso_cpu with 2x2 pixel packets traversing the tree together (Wald 4.3; sylva/ikd/
-/// packet.hpp); p.walker must be IsoWalker::Tree. The image and the cell and hit counts equal
+/// Rays a packet of render_iso_cpu_packets: 4 (2x2 pixels, one SSE group; Wald's packets) or 8
+/// (4x2 pixels, two SSE groups: fewer node visits a ray, fewer of its lanes active a visit).
+enum class PacketLanes : std::uint32_t { Four = 4, Eight = 8, Sixteen = 16 };
+
+namespace detail {
+
+/// render_iso_cpu_packets' frame with packets of L rays.
+template <int L, Executor X>
+void iso_tiles(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp, const shared::SylvaIkdHeader& hdr,
+               const ikd::IsoCodes& codes, const ikd::Levels& levels, const IsoRenderParams& p, X& exec, Frame& f,
+               IsoTotals& totals) {
+    constexpr std::uint32_t w = packet_tile_width(L), h = L / packet_tile_width(L);
+    exec.parallel_for(0, (p.height + h - 1) / h, 1, [&](std::size_t r0, std::size_t r1) {
+        IsoCounters n;
+        for (std::size_t r = r0; r < r1; ++r)
+            for (std::uint32_t x = 0; x < p.width; x += w)
+                iso_tile<L>(tw, gw, sp, hdr, codes, levels, p, x, static_cast<std::uint32_t>(h * r), f, n);
+        totals.add(n);
+    });
+}
+
+}  // namespace detail
+
+/// render_iso_cpu with pixel packets (2x2 or 4x2: `lanes`) traversing the tree together (Wald
+/// 4.3; sylva/ikd/packet.hpp); p.walker must be IsoWalker::Tree. The image and the cell and hit counts equal
 /// render_iso_cpu's bit for bit; steps count packet steps (each pixel of a tile gets its
 /// packet's), Wald's Table I "SIMD" column.
 template <Executor X>
 Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p,
-                             X& exec, IsoCounters* counters = nullptr) {
+                             X& exec, IsoCounters* counters = nullptr, PacketLanes lanes = PacketLanes::Eight) {
     if (p.walker != IsoWalker::Tree) throw Error("render: packets traverse the implicit kd-tree, not the DDA");
     check_iso_grid(grid);
     std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling);
@@ -279,16 +361,13 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
     shared::SylvaIkdHeader hdr = shared::sylva_iso_read_header(tw, sp);  // once a frame
     ikd::IsoCodes codes = ikd::iso_codes(sp.isos, sp.iso_count, hdr);                              // once a frame
+    ikd::Levels levels = ikd::levels(words, hdr);                                                  // once a frame
     Frame f = detail::iso_frame(p);
     detail::IsoTotals totals;
     auto start = std::chrono::steady_clock::now();
-    exec.parallel_for(0, (p.height + 1) / 2, 1, [&](std::size_t r0, std::size_t r1) {
-        IsoCounters n;
-        for (std::size_t r = r0; r < r1; ++r)
-            for (std::uint32_t x = 0; x < p.width; x += 2)
-                detail::iso_tile(tw, gw, sp, hdr, codes, p, x, static_cast<std::uint32_t>(2 * r), f, n);
-        totals.add(n);
-    });
+    if (lanes == PacketLanes::Sixteen) detail::iso_tiles<16>(tw, gw, sp, hdr, codes, levels, p, exec, f, totals);
+    else if (lanes == PacketLanes::Eight) detail::iso_tiles<8>(tw, gw, sp, hdr, codes, levels, p, exec, f, totals);
+    else detail::iso_tiles<4>(tw, gw, sp, hdr, codes, levels, p, exec, f, totals);
     f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (counters) *counters = totals.get();
     return f;
