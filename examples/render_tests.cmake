@@ -281,6 +281,16 @@ foreach(backend cpu vulkan)
       JSON_MIN visible_pixels=${_rv_min_visible} JSON_EQUAL ${_grid_json} errors=0)
   endforeach()
 endforeach()
+# Packets (--packets 1|4|8|16, 8 by default on the host): the single rays' image byte for byte,
+# fewer steps (examples/iso_packets_check.cmake); refused where no packets walk.
+add_test(NAME examples.sylva_render.iso_packets
+         COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:sylva-render> -DOUT=${_out}/iso_packets
+                 -P ${CMAKE_CURRENT_SOURCE_DIR}/iso_packets_check.cmake)
+set_tests_properties(examples.sylva_render.iso_packets PROPERTIES LABELS "plugins")
+sylva_render_test(iso_packets_dda RC 2 ERR "--packets: packets walk the implicit kd-tree on the host"
+  ARGS --index dda --packets 4 -o ${_out}/x.png)
+sylva_render_test(iso_packets_bad RC 2 ERR "--packets: '3' is not one of 1\\|4\\|8\\|16"
+  ARGS --index implicit-kd --packets 3 -o ${_out}/x.png)
 sylva_render_test(iso_grid_sparse RC 2 ERR "--grid sparse: the implicit kd-tree and the DDA read dense grids"
   ARGS --index implicit-kd --grid sparse -o ${_out}/x.png)
 sylva_render_test(iso_outside FIXTURE sylva_range_volumes  # densities reach 3926 / 8000 = 0.49 only

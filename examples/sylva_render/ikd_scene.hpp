@@ -65,7 +65,12 @@ inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g,
     Frame f;
     if (o.backend == "cpu") {
         s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
-        f = best_of(o.repeat, [&] { return render_iso_cpu(words, gw, p, pool, &n); });
+        bool packets = p.walker == IsoWalker::Tree && o.packets > 1;  // the same image; fewer steps
+        s.iso.packet_lanes = packets ? o.packets : 1u;
+        f = best_of(o.repeat, [&] {
+            return packets ? render_iso_cpu_packets(words, gw, p, pool, &n, static_cast<PacketLanes>(o.packets))
+                           : render_iso_cpu(words, gw, p, pool, &n);
+        });
     } else {
 #ifdef SYLVA_RENDER_VULKAN
         vk::Context ctx = vk::Context::create();

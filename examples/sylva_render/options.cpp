@@ -366,6 +366,11 @@ void add_volume_indices(CLI::App& app, Options& o) {
         if (v != "8" && v != "16") throw std::invalid_argument("'" + v + "' is not one of 8|16");
         return v == "8" ? 8u : 16u;
     }, "8|16", "bits of a node's min and max in the implicit kd-tree", label(o.ikd_node_bits));
+    i.converted("--packets", o.packets, [](const std::string& v) -> std::uint32_t {
+        if (v != "1" && v != "4" && v != "8" && v != "16") throw std::invalid_argument("'" + v + "' is not one of 1|4|8|16");
+        return static_cast<std::uint32_t>(std::stoul(v));
+    }, "1|4|8|16", "rays of a tile walking the implicit kd-tree together (--backend cpu; 1: single rays, 4: "
+                   "Wald's 2x2 packets)", label(o.packets));
 
     Group t{app, "octree (volumes: --index octree)"};
     t.converted("--brick", o.brick, [](const std::string& v) -> std::uint32_t {
@@ -456,6 +461,9 @@ void check_volume(Options& o, const CLI::App& app) {
     if (o.ikd_index() && o.mode == "dvr")
         throw std::invalid_argument("--index " + o.index + " renders isosurfaces (--mode iso), not --mode dvr");
     if (o.ikd_index()) o.mode = "iso";
+    if (given(app, "--packets") && !(o.index == "implicit-kd" && o.backend == "cpu"))
+        throw std::invalid_argument("--packets: packets walk the implicit kd-tree on the host (--index implicit-kd "
+                                    "--backend cpu)");
     if (o.ikd_index() && o.grid_format == "sparse")
         throw std::invalid_argument("--grid sparse: the implicit kd-tree and the DDA read dense grids (--grid native or float32)");
     if (o.camera == "ortho" && (!o.volume_input() || o.out_of_core()))

@@ -49,6 +49,7 @@ struct Options {
     std::vector<float> isos{0.5f};   ///< --iso V1[,V2,...]: up to 4 isovalues (implicit-kd, dda)
     std::uint32_t ikd_bricks = sylva::ikd::Config{}.brick_levels;  ///< --ikd-bricks N: bottom levels of the implicit kd-tree not stored (0: slim tree)
     std::uint32_t ikd_node_bits = sylva::ikd::Config{}.node_bits;  ///< --ikd-node-bits 8|16: bits of a node's min and max (ikd::Config::node_bits)
+    std::uint32_t packets = 8;  ///< --packets 1|4|8|16: rays walking the implicit kd-tree together on the host (1: single rays)
     bool iso_cull = true;            ///< --iso-cull on|off: skip nodes whose density range excludes V
     std::uint32_t steps = 1024;      ///< --steps N: samples along the longest axis (reference marcher, multi)
     bool shading = false;            ///< --shading: Lambert shading from the gradient

@@ -86,6 +86,7 @@ struct Stats {
         std::size_t index_bytes = 0, cells = 0;
         std::uint32_t levels = 0;
         std::uint64_t cells_tested = 0, traversal_steps = 0, hits = 0;
+        std::uint32_t packet_lanes = 1;  ///< rays a traversal step serves at most (--packets; 1: single rays)
     } iso;
 
     /// Bricked octree runs (--index octree): the structure and the cut rendered.
@@ -243,8 +244,9 @@ struct Stats {
            << "  memory         index " << mb(iso.index_bytes) << " MB, data " << mb(volume.data_bytes) << " MB ("
            << (volume.data_bytes ? static_cast<double>(iso.index_bytes) / static_cast<double>(volume.data_bytes) : 0.0)
            << "x the data)\n"
-           << "  traversal      " << iso.traversal_steps << " steps, " << iso.cells_tested << " cells intersected, "
-           << iso.hits << " hits\n";
+           << "  traversal      " << iso.traversal_steps << " steps"
+           << (iso.packet_lanes > 1 ? " of packets of " + std::to_string(iso.packet_lanes) + " rays" : std::string())
+           << ", " << iso.cells_tested << " cells intersected, " << iso.hits << " hits\n";
     }
 
     /// The kd-tree's Table 1 columns (Zellmann et al.) and the --tf-sequence rebuilds.
@@ -347,6 +349,7 @@ struct Stats {
             j["levels"] = iso.levels;
             j["cells_tested"] = iso.cells_tested;
             j["traversal_steps"] = iso.traversal_steps;
+            j["packet_lanes"] = iso.packet_lanes;
             j["hits"] = iso.hits;
         }
         return j;
