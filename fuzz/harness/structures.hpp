@@ -13,6 +13,7 @@
 #define SYLVA_FUZZ_HARNESS_STRUCTURES_HPP
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -22,6 +23,7 @@
 #include <sylva/bih/query.hpp>
 #include <sylva/bih/validate.hpp>
 #include <sylva/core/error.hpp>
+#include <sylva/ikd/packet.hpp>
 #include <sylva/ikd/validate.hpp>
 #include <sylva/kdtree/query.hpp>
 #include <sylva/kdtree/validate.hpp>
@@ -153,18 +155,45 @@ inline int fuzz_ikd(const std::uint8_t* data, std::size_t size) {
     uint gc = static_cast<uint>(std::min<std::size_t>(grid.size(), 0xFFFFFFFFu));
     SylvaIkdHeader h = sylva_ikd_read_header(w, wc, gc);
     vec3 hi = h.origin + vec3(h.cells) * h.spacing;
+    const sylva::vec4 isos(0.35f, 0.6f, 0.0f, 0.0f);
+    std::uint64_t cells = std::uint64_t{h.cells.x} * h.cells.y * h.cells.z;
     for (const sylva::Ray& r : rays_over(h.origin, hi)) {
         SylvaIkdIter it;
-        sylva_ikd_init(it, w, wc, gc, r.origin, r.direction, 0.0f, 1e30f, sylva::vec4(0.35f, 0.6f, 0.0f, 0.0f), 2u);
+        sylva_ikd_init(it, w, wc, gc, r.origin, r.direction, 0.0f, 1e30f, isos, 2u);
         uvec3 cell;
         float t0, t1;
-        std::uint64_t n = 0, cells = std::uint64_t{h.cells.x} * h.cells.y * h.cells.z;
+        std::uint64_t n = 0;
+        std::vector<std::uint32_t> single;  // cell x, y, z, t0 bits, t1 bits
         while (sylva_ikd_next(it, w, g, cell, t0, t1)) {
             SYLVA_FUZZ_CHECK(cell.x < h.cells.x && cell.y < h.cells.y && cell.z < h.cells.z, "a cell outside the grid");
             SYLVA_FUZZ_CHECK(++n <= cells, "more candidate cells than cells");
+            single.insert(single.end(), {cell.x, cell.y, cell.z, std::bit_cast<std::uint32_t>(t0), std::bit_cast<std::uint32_t>(t1)});
         }
         SYLVA_FUZZ_CHECK(it.status != SYLVA_ITER_RUNNING, "a walk stopped while running");
         if (valid) SYLVA_FUZZ_CHECK(it.status == SYLVA_ITER_DONE, "an accepted implicit kd-tree walked into an error");
+        // The same ray as lane 0 of a packet of 8 (the other lanes parallel to it, shifted): its
+        // cells and intervals are the single ray's, every lane's cells inside the grid.
+        sylva::ikd::RayPacket8 pk;
+        for (int k = 0; k < 8; ++k) {
+            pk.origin[k] = r.origin + float(k) * 0.37f * vec3(1.0f, 0.5f, 0.25f);
+            pk.direction[k] = r.direction;
+            pk.t_min[k] = 0.0f;
+            pk.t_max[k] = 1e30f;
+        }
+        pk.active = 0xFFu;
+        sylva::ikd::PacketIter8 packet(words, grid, pk, isos, 2u);
+        sylva::ikd::PacketCell8 c;
+        std::vector<std::uint32_t> lane0;
+        std::uint64_t visits = 0;
+        while (packet.next(c)) {
+            SYLVA_FUZZ_CHECK(c.cell.x < h.cells.x && c.cell.y < h.cells.y && c.cell.z < h.cells.z, "a packet cell outside the grid");
+            SYLVA_FUZZ_CHECK(++visits <= 8 * cells, "more packet cells than cells of all lanes");
+            if (c.mask & 1u)
+                lane0.insert(lane0.end(), {c.cell.x, c.cell.y, c.cell.z, std::bit_cast<std::uint32_t>(c.t0[0]),
+                                           std::bit_cast<std::uint32_t>(c.t1[0])});
+        }
+        SYLVA_FUZZ_CHECK(packet.status() == it.status, "a packet walk ended otherwise than the single ray's");
+        SYLVA_FUZZ_CHECK(lane0 == single, "a packet lane's cells differ from its single ray's");
     }
     return 0;
 }
