@@ -176,8 +176,6 @@ inline F4 canon4(F4 a) {
     return _mm_castsi128_ps(_mm_andnot_si128(_mm_cmpeq_epi32(b, _mm_set1_epi32(static_cast<int>(0x80000000u))), b));
 }
 inline M4 mask_of4(const std::int32_t* p) { return _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(p))); }
-inline M4 all_lanes() { return _mm_castsi128_ps(_mm_set1_epi32(-1)); }
-inline M4 no_lanes() { return _mm_setzero_ps(); }
 #else
 struct F4 {
     float v[kPacketLanes];
@@ -220,8 +218,6 @@ inline F4 canon4(F4 a) {
     return a;
 }
 inline M4 mask_of4(const std::int32_t* p) { return {{p[0] ? 1.0f : 0.0f, p[1] ? 1.0f : 0.0f, p[2] ? 1.0f : 0.0f, p[3] ? 1.0f : 0.0f}}; }
-inline M4 all_lanes() { return {{1.0f, 1.0f, 1.0f, 1.0f}}; }
-inline M4 no_lanes() { return {{0.0f, 0.0f, 0.0f, 0.0f}}; }
 #endif
 
 /// L lanes (4 or 8) as L / 4 groups of four; each operation is the group one, group by group.
@@ -255,12 +251,6 @@ template <int L>
 inline VL<L> vmask_of(const std::int32_t* p) {
     VL<L> r;
     for (int i = 0; i < L / 4; ++i) r.g[i] = mask_of4(p + 4 * i);
-    return r;
-}
-template <int L>
-inline VL<L> vlanes(bool all) {
-    VL<L> r;
-    for (int i = 0; i < L / 4; ++i) r.g[i] = all ? all_lanes() : no_lanes();
     return r;
 }
 template <int L>
