@@ -219,6 +219,8 @@ TEST_CASE("iso rendering: packets of 4, 8 and 16 rays give the single-ray image 
     p.isos = {{0.5f, vec4(1.0f)}};
     for (PacketLanes lanes : widths)
         CHECK(bits_of(render_iso_cpu(words, gw, p, pool)) == bits_of(render_iso_cpu_packets(words, gw, p, pool, nullptr, lanes)));
+    CHECK_THROWS_WITH(render_iso_cpu_packets(words, gw, p, pool, nullptr, static_cast<PacketLanes>(3)),
+                      Catch::Contains("packets hold 4, 8 or 16 rays, not 3"));
 }
 
 namespace {

@@ -434,7 +434,6 @@ private:
         std::uint32_t level, mask;
         V t_in, t_out;
     };
-    static std::uint64_t pack(glm::u32vec3 c) { return c.x | std::uint64_t{c.y} << 16 | std::uint64_t{c.z} << 32; }
     static glm::u32vec3 unpack(std::uint64_t xyz) {
         return {static_cast<std::uint32_t>(xyz & 0xFFFFu), static_cast<std::uint32_t>((xyz >> 16) & 0xFFFFu),
                 static_cast<std::uint32_t>(xyz >> 32)};

@@ -255,14 +255,14 @@ void tile_camera_rays(const CameraFrame& cam, RaySource source, std::uint32_t x0
     }
 }
 
-/// Shades the tile at (x0, y0) with one packet of L rays (ikd::BasicPacketIter<L>; a tile of 2x2
-/// pixels for 4 lanes, 4x2 for 8); lanes outside the image stay inactive. Falls back to single
-/// rays when the directions' signs differ. Adds the packet's
+/// Shades the tile at (x0, y0) with one packet of L rays (ikd::BasicPacketIter<L>; tiles of
+/// packet_tile_width(L) x L / packet_tile_width(L) pixels); lanes outside the image stay
+/// inactive. Falls back to single rays when the directions' signs differ. Adds the packet's
 /// traversal steps (or the single rays') to n.
 template <int L>
-void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp,
-                     const shared::SylvaIkdHeader& hdr, const ikd::IsoCodes& codes, const ikd::Levels& levels,
-                     const IsoRenderParams& rp, std::uint32_t x0, std::uint32_t y0, Frame& f, IsoCounters& n) {
+void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& sp, const shared::SylvaIkdHeader& hdr,
+              const ikd::IsoCodes& codes, const ikd::Levels& levels, const IsoRenderParams& rp, std::uint32_t x0,
+              std::uint32_t y0, Frame& f, IsoCounters& n) {
     constexpr int kTileWidth = packet_tile_width(L);
     ikd::BasicRayPacket<L> pk;
     std::array<std::size_t, L> at{};
@@ -324,8 +324,9 @@ void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& 
 
 }  // namespace detail
 
-/// Rays a packet of render_iso_cpu_packets: 4 (2x2 pixels, one SSE group; Wald's packets) or 8
-/// (4x2 pixels, two SSE groups: fewer node visits a ray, fewer of its lanes active a visit).
+/// Rays a packet of render_iso_cpu_packets: 4 (2x2 pixels, one SSE group; Wald's packets), 8
+/// (4x2 pixels, two SSE groups: fewer node visits a ray, fewer of its lanes active a visit; the
+/// fastest on the README's volumes) or 16 (4x4 pixels).
 enum class PacketLanes : std::uint32_t { Four = 4, Eight = 8, Sixteen = 16 };
 
 namespace detail {
@@ -347,14 +348,17 @@ void iso_tiles(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams&
 
 }  // namespace detail
 
-/// render_iso_cpu with pixel packets (2x2 or 4x2: `lanes`) traversing the tree together (Wald
-/// 4.3; sylva/ikd/packet.hpp); p.walker must be IsoWalker::Tree. The image and the cell and hit counts equal
-/// render_iso_cpu's bit for bit; steps count packet steps (each pixel of a tile gets its
-/// packet's), Wald's Table I "SIMD" column.
+/// render_iso_cpu with pixel packets of `lanes` rays traversing the tree together (Wald 4.3;
+/// sylva/ikd/packet.hpp); p.walker must be IsoWalker::Tree. The image and the cell and hit
+/// counts equal render_iso_cpu's bit for bit; steps count packet steps (each pixel of a tile
+/// gets its packet's), Wald's Table I "SIMD" column. Throws sylva::Error for a `lanes` other
+/// than 4, 8 or 16.
 template <Executor X>
 Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p,
                              X& exec, IsoCounters* counters = nullptr, PacketLanes lanes = PacketLanes::Eight) {
     if (p.walker != IsoWalker::Tree) throw Error("render: packets traverse the implicit kd-tree, not the DDA");
+    if (lanes != PacketLanes::Four && lanes != PacketLanes::Eight && lanes != PacketLanes::Sixteen)
+        throw Error("render: packets hold 4, 8 or 16 rays, not " + std::to_string(static_cast<std::uint32_t>(lanes)));
     check_iso_grid(grid);
     std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling);
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
