@@ -55,6 +55,7 @@ struct Options {
     std::size_t runs = 3, threads = 0;
     float lod_pixels = 1.0f, iso = 0.3f;
     bool shading = false;
+    std::string border = "zero";
 };
 
 /// The command line, bound to `o`.
@@ -94,6 +95,11 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
         ->capture_default_str()
         ->check(bench_cli::number_in(0.0, 1.0));
     app->add_flag("--shading", o.shading, "Blinn-Phong shading from the gradient");
+    app->add_option("--border", o.border, "what samples read outside the volume: zero (a constant 0) or clamp, for the "
+                                          "marcher and the octree alike")
+        ->type_name("MODE")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"zero", "clamp"}));
     app->add_option("--json", o.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")
         ->type_name("FILE");
     return app;
@@ -182,28 +188,30 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     octree::Tree t = octree::build(g, pool, cfg);
     std::vector<std::uint32_t> full = octree::encode(t);
     std::vector<std::uint32_t> lod = full, lod_iso = full;
-    octree::Cut cut = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, false);
+    const GridBorder border = o.border == "clamp" ? GridBorder::clamp() : GridBorder{};
+    octree::Cut cut = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, false, border);
     octree::apply_cut(lod, cut);
-    octree::Cut cut_iso = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, true);
+    octree::Cut cut_iso = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, true, border);
     octree::apply_cut(lod_iso, cut_iso);
-    GridWords gw = GridWords::from(g, GridBorder::clamp());
+    GridWords gw = GridWords::from(g, border);
     // Octant masks (octree/octants.hpp): the ranges once per octree, the masks once per TF.
     auto t_oct = std::chrono::steady_clock::now();
     octree::OctantRanges oct_ranges = octree::octant_ranges(full, t.bricks, pool);
     double octant_ranges_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_oct).count();
-    std::vector<std::uint32_t> octmask = octree::octant_masks(oct_ranges, tf_opacity_prefix(p.tf));
+    std::vector<std::uint32_t> octmask = octree::octant_masks(
+        oct_ranges, tf_opacity_prefix(p.tf), border.mode == BorderMode::Constant ? std::optional<float>(border.value) : std::nullopt);
     const char* names[] = {"marcher", "octree-full", "octree-lod", "iso-full", "iso-lod", "octree-full-octants",
                            "octree-lod-octants"};
     constexpr std::size_t kImpls = 7;
     auto render = [&](std::size_t i, const VolumeRenderParams& q) {
         switch (i) {
             case 0: return render_dvr_cpu(gw, q, pool);
-            case 1: return render_octree_dvr_cpu(OctreeView{full, t.bricks}, q, pool);
-            case 2: return render_octree_dvr_cpu(OctreeView{lod, t.bricks}, q, pool);
-            case 3: return render_octree_iso_cpu(OctreeView{full, t.bricks}, q, pool);
-            case 4: return render_octree_iso_cpu(OctreeView{lod_iso, t.bricks}, q, pool);
-            case 5: return render_octree_dvr_cpu(OctreeView{full, t.bricks, 0xFFFFFFFFu, {}, octmask}, q, pool);
-            default: return render_octree_dvr_cpu(OctreeView{lod, t.bricks, 0xFFFFFFFFu, {}, octmask}, q, pool);
+            case 1: return render_octree_dvr_cpu(OctreeView{full, t.bricks, 0xFFFFFFFFu, {}, {}, border}, q, pool);
+            case 2: return render_octree_dvr_cpu(OctreeView{lod, t.bricks, 0xFFFFFFFFu, {}, {}, border}, q, pool);
+            case 3: return render_octree_iso_cpu(OctreeView{full, t.bricks, 0xFFFFFFFFu, {}, {}, border}, q, pool);
+            case 4: return render_octree_iso_cpu(OctreeView{lod_iso, t.bricks, 0xFFFFFFFFu, {}, {}, border}, q, pool);
+            case 5: return render_octree_dvr_cpu(OctreeView{full, t.bricks, 0xFFFFFFFFu, {}, octmask, border}, q, pool);
+            default: return render_octree_dvr_cpu(OctreeView{lod, t.bricks, 0xFFFFFFFFu, {}, octmask, border}, q, pool);
         }
     };
     auto res = race(render, kImpls, p, o.runs);

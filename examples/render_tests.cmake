@@ -420,14 +420,21 @@ endforeach()
 sylva_render_test(kd_volume RC 2 ERR "--index kd renders particles"
   ARGS --index kd --volume procedural -o ${_out}/x.png)
 
-# --camera ortho (issue 17) on both backends and through the kd-tree, --repeat's median and
+# --camera ortho (issue 17) on both backends through the marcher, the kd-tree and the octree (in
+# core, and out of core with its cut chosen for the orthographic view), --repeat's median and
 # minimum in the stats JSON, the leaf boxes drawn with it; ortho is refused where the pinhole is
-# the only camera (particles, out-of-core octrees).
+# the only camera (particles).
 foreach(backend cpu vulkan)
   if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
     continue()
   endif()
-  foreach(index none kd-vidal)
+  sylva_render_test(camera_ortho_ooc_${backend} KEYS_ONLY
+    ARGS --volume procedural --index octree --frames 4 --backend ${backend} --camera ortho --border clamp --size 64x48
+         --quiet -o ${_out}/ortho_ooc_${backend}.png --stats-json ${_out}/ortho_ooc_${backend}.json
+    FILES ${_out}/ortho_ooc_${backend}.png JSON ${_out}/ortho_ooc_${backend}.json
+    EXTRA_KEYS camera border
+    JSON_EQUAL camera=ortho border=clamp errors=0 JSON_MIN visible_pixels=100)
+  foreach(index none kd-vidal octree)
     sylva_render_test(camera_ortho_${index}_${backend} KEYS_ONLY
       ARGS --volume procedural --index ${index} --backend ${backend} --camera ortho --repeat 3 --size 64x48 --quiet
            -o ${_out}/ortho_${index}_${backend}.png --stats-json ${_out}/ortho_${index}_${backend}.json
@@ -465,7 +472,7 @@ foreach(backend cpu vulkan)
       JSON_EQUAL ${_grid_json} voxels=16777216 errors=0 JSON_MIN visible_pixels=100)
   endforeach()
 endforeach()
-sylva_render_test(camera_ortho_particles RC 2 ERR "--camera ortho renders in-core volumes"
+sylva_render_test(camera_ortho_particles RC 2 ERR "--camera ortho renders volumes \\(not particles\\)"
   ARGS --count 1000 --camera ortho -o ${_out}/x.png)
 
 # The command line through CLI11 and the stats JSON through nlohmann-json (issue 16, item 6):

@@ -82,7 +82,7 @@ public:
             dev_.rebuilder.reset();
 #endif
             host_.reset();
-            codes_.emplace(ess_codes(grid_, cls.entries(), pool_, o_.border == "clamp" ? GridBorder::clamp() : GridBorder{}));
+            codes_.emplace(ess_codes(grid_, cls.entries(), pool_, grid_border(o_)));
             codes_ms_ = codes_->ms;
 #ifdef SYLVA_RENDER_VULKAN
             if (on_device()) dev_.rebuilder.emplace(*dev_.ctx, codes_->volume, cfg_, pool_);

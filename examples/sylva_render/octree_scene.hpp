@@ -52,18 +52,22 @@ inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid&
     std::vector<std::uint32_t> words = octree::encode(tree);
     octree::Cut cut;
     if (o.lod_pixels > 0.0f) {
-        cut = select_octree_cut(words, vp, {o.lod_pixels, o.cut_nodes}, iso);
+        cut = select_octree_cut(words, vp, {o.lod_pixels, o.cut_nodes}, iso, grid_border(o));
         octree::apply_cut(words, cut);
     } else {  // the full-resolution cut: every node
         cut.nodes = static_cast<std::uint32_t>(tree.nodes.size());
         for (const octree::Node& n : tree.nodes) cut.leaves += n.leaf() ? 1u : 0u;
         cut.deepest = tree.levels - 1u;
     }
-    // Octant masks for the TF (octree/octants.hpp): DVR skips the empty octants of leaves.
+    // Octant masks for the TF and the border (octree/octants.hpp): DVR skips the empty octants
+    // of leaves.
     std::vector<std::uint32_t> octmask;
-    if (!iso) octmask = octree::octant_masks(octree::octant_ranges(words, tree.bricks, pool), tf_opacity_prefix(vp.tf));
+    const GridBorder border = grid_border(o);
+    if (!iso)
+        octmask = octree::octant_masks(octree::octant_ranges(words, tree.bricks, pool), tf_opacity_prefix(vp.tf),
+                                       border.mode == BorderMode::Constant ? std::optional<float>(border.value) : std::nullopt);
     s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    OctreeView view{words, tree.bricks, 0xFFFFFFFFu, {}, octmask};
+    OctreeView view{words, tree.bricks, 0xFFFFFFFFu, {}, octmask, grid_border(o)};
     Frame f;
     if (o.backend == "cpu") {
         s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
@@ -85,6 +89,7 @@ inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid&
     v.mode = std::string(iso ? "iso, first hit" : "dvr") + " through the bricked octree (" +
              (o.lod_pixels > 0.0f ? "view-dependent cut" : "full-resolution cut") + ")";
     v.grid = std::to_string(g.dims.x) + "x" + std::to_string(g.dims.y) + "x" + std::to_string(g.dims.z);
+    v.border = o.border;
     v.voxels = g.values.size();
     v.grid_bytes_16bit = g.values.size() * 2;
     Stats::OctreeRows& r = s.octree;

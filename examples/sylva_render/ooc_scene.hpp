@@ -47,14 +47,20 @@ inline std::size_t peak_rss_bytes() {
 }
 
 /// The render parameters for the octree's volume (what render_params does for a grid): the view
-/// framing the world box, --tf / --tf-preset, dt = longest extent / --steps, unit = the voxel.
+/// framing the world box (--camera pinhole, or ortho: a rectangle as high as the bounding
+/// sphere), --tf / --tf-preset, dt = longest extent / --steps, unit = the voxel.
 inline sylva::VolumeRenderParams ooc_params(const Options& o, const sylva::shared::SylvaOctHeader& h, sylva::vec3 from) {
     using namespace sylva;
     VolumeRenderParams p;
     p.width = o.width;
     p.height = o.height;
     Aabb box{vec3(0.0f), vec3(h.dims) * h.spacing};
-    p.camera = Camera::framing(box, from).frame(o.width, o.height);
+    Camera cam = Camera::framing(box, from);
+    p.camera = cam.frame(o.width, o.height);
+    if (o.camera == "ortho") {
+        p.camera = cam.ortho_frame(o.width, o.height, 0.5f * glm::length(box.extent()));
+        p.rays.source = RaySource::Ortho;
+    }
     volume::TransferFunction tf = !o.tf.empty() ? read_tf_file(o.tf)
                                   : o.tf_preset == "ramp"
                                       ? volume::TransferFunction::ramp(o.threshold, 1.0f, vec4(1.0f, 0.85f, 0.6f, 0.5f))
@@ -86,7 +92,7 @@ struct OocRenderer {
     bool iso;
     sylva::Frame host(std::span<const std::uint32_t> words, std::span<const std::uint32_t> bricks, std::span<std::uint32_t> seen,
                       const sylva::VolumeRenderParams& p) {
-        sylva::OctreeView v{words, bricks, 0xFFFFFFFFu, seen};
+        sylva::OctreeView v{words, bricks, 0xFFFFFFFFu, seen, {}, grid_border(o)};
         return iso ? sylva::render_octree_iso_cpu(v, p, pool) : sylva::render_octree_dvr_cpu(v, p, pool);
     }
 };
@@ -99,7 +105,7 @@ sylva::Frame ooc_frames(const Options& o, const S& src, Buf& buf, const sylva::o
     using namespace sylva;
     octree::Residency res(src, buf, cfg);
     VolumeRenderParams p = ooc_params(o, res.header(), ooc_view(o, 0));
-    OctreeTerminal terminal(src.index(), p, iso);
+    OctreeTerminal terminal(src.index(), p, iso, grid_border(o));
     Frame f;
     Stats::OocRows& r = s.ooc;
     if (!o.frames_out.empty()) {
@@ -110,7 +116,7 @@ sylva::Frame ooc_frames(const Options& o, const S& src, Buf& buf, const sylva::o
     for (std::uint32_t i = 0; i < o.frames; ++i) {
         auto t0 = std::chrono::steady_clock::now();
         if (o.orbit) p.camera = ooc_params(o, res.header(), ooc_view(o, i)).camera;
-        const octree::ResidencyFrame& fr = res.update(octree::cut_view(p.camera, p.width, p.height), terminal);
+        const octree::ResidencyFrame& fr = res.update(octree_cut_view(p), terminal);
         f = draw(fr, p, res.feedback());
         double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         r.frames.push_back({ms, fr.ms, f.ms, fr.loaded, fr.uploads, fr.requests, fr.cut.nodes, fr.cut.deepest});
@@ -179,6 +185,7 @@ int run_octree_ooc(const Options& o, const S& src, sylva::ThreadPool& pool, Stat
         std::vector<std::uint32_t> words0(index.begin(), index.end());
         words0[7] = slots;
         vk::DeviceOctree dev(ctx, words0, std::size_t{slots} * brick_words);
+        dev.set_border(grid_border(o));
         words0 = {};
         vk::DeviceBrickPool buf{&dev, brick_words};
         f = ooc_frames(o, src, buf, cfg, iso,
@@ -206,6 +213,7 @@ int run_octree_ooc(const Options& o, const S& src, sylva::ThreadPool& pool, Stat
     v.grid = std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" + std::to_string(h.dims.z);
     v.voxels = std::size_t{h.dims.x} * h.dims.y * h.dims.z;
     v.grid_bytes_16bit = v.voxels * 2;
+    v.border = o.border;
     if (s.elements == 0) s.elements = v.voxels;  // a store: the volume's voxels
     s.nodes = h.node_count;
     s.bytes = r.index_bytes + s.ooc.device_pool_bytes;  // what the renderer reads: frame index + pool

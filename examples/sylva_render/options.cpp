@@ -466,8 +466,8 @@ void check_volume(Options& o, const CLI::App& app) {
                                     "--backend cpu)");
     if (o.ikd_index() && o.grid_format == "sparse")
         throw std::invalid_argument("--grid sparse: the implicit kd-tree and the DDA read dense grids (--grid native or float32)");
-    if (o.camera == "ortho" && (!o.volume_input() || o.out_of_core()))
-        throw std::invalid_argument("--camera ortho renders in-core volumes (not particles or out-of-core octrees)");
+    if (o.camera == "ortho" && !o.volume_input())
+        throw std::invalid_argument("--camera ortho renders volumes (not particles)");
     if (o.isos.size() > 1 && !o.ikd_index())
         throw std::invalid_argument("several --iso values need --index implicit-kd or dda");
     if (o.octree_index() && o.volume_input() && o.mode.empty()) o.mode = "dvr";

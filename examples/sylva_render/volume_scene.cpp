@@ -79,7 +79,7 @@ volume::DensityGrid load_grid(const Options& o, ThreadPool& pool, Stats& s, std:
 }  // namespace
 
 GridWords render_grid(const Options& o, const volume::DensityGrid& g, const volume::Volume* raw, Stats& s) {
-    GridBorder border = o.border == "clamp" ? GridBorder::clamp() : GridBorder{};
+    GridBorder border = grid_border(o);
     s.volume.border = o.border;
     if ((o.grid_format == "native" || o.grid_format == "sparse") && raw) {
         bool sparse = o.grid_format == "sparse";

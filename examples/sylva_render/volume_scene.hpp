@@ -37,6 +37,11 @@ void warn_if_nothing_visible(const Options& o, const Stats& s, const sylva::volu
 /// 8^3 bricks, uniform ones held in the brick table (GridWords::sparse); else, and for
 /// procedural, float32 or resampled volumes (raw null), the float words of `g`. The stats get
 /// grid_bytes, grid_format (uint8, uint16, sparse-uint8, ..., float32) and border.
+/// The samplers' border mode of --border: clamp, or zero (a constant 0, the default).
+inline sylva::GridBorder grid_border(const Options& o) {
+    return o.border == "clamp" ? sylva::GridBorder::clamp() : sylva::GridBorder{};
+}
+
 sylva::GridWords render_grid(const Options& o, const sylva::volume::DensityGrid& g, const sylva::volume::Volume* raw,
                              Stats& s);
 

@@ -1,7 +1,8 @@
 // Transfer functions on Vulkan (lavapipe in CI): float RGBA tables through every volume kernel,
 // the GLSL hook (the issue's analytic TF, one shared-subset text with the host's tf_hook) in a
-// user kernel of sylva/shared/dvr_main.glsl, kd_dvr_main.glsl (ESS) and bih_dvr_main.glsl
-// (BIH-DVR, its three modes), and the opacity corrections, against the host.
+// user kernel of sylva/shared/dvr_main.glsl, kd_dvr_main.glsl (ESS), bih_dvr_main.glsl
+// (BIH-DVR, its three modes) and octree_dvr_main.glsl (DVR and iso), and the opacity
+// corrections, against the host.
 #include <catch2/catch.hpp>
 
 #include <cstring>
@@ -14,6 +15,7 @@
 #include <sylva/spirv/test_dvr_analytic_tf.h>
 #include <sylva/spirv/test_kd_dvr_analytic_tf.h>
 #include <sylva/spirv/test_bih_dvr_analytic_tf.h>
+#include <sylva/spirv/test_octree_dvr_analytic_tf.h>
 #include <sylva/vulkan/kd_volume.hpp>
 #include <sylva/vulkan/octree_volume.hpp>
 #include <sylva/vulkan/volume.hpp>
@@ -73,6 +75,7 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
     octree::Tree oct = octree::build(grid, pool, {8, 2});
     std::vector<std::uint32_t> oct_words = octree::encode(oct);
     vk::DeviceOctree doct(ctx, OctreeView{oct_words, oct.bricks});
+    vk::Kernel oct_hook_kernel = doct.user_kernel(ctx, spirv::test_octree_dvr_analytic_tf);
 
     for (bool shading : {false, true}) {
         for (OpacityCorrection oc : {OpacityCorrection::Power, OpacityCorrection::None}) {
@@ -109,6 +112,8 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
                 q.mode = m;
                 check("bih hook", render_bih_dvr_cpu(view, q, pool), vk::render_bih_dvr_vulkan(ctx, dbih, q, &bih_hook_kernel));
             }
+            check("octree hook", render_octree_dvr_cpu(OctreeView{oct_words, oct.bricks}, h, pool),
+                  vk::render_octree_dvr_vulkan(ctx, doct, h, {}, {}, &oct_hook_kernel));
         }
     }
     VolumeRenderParams h = base;
@@ -118,4 +123,12 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
     CHECK_THROWS_WITH(vk::render_kd_dvr_vulkan(ctx, dgrid, dkd, h), Catch::Contains("TfKind::Hook runs in your shader"));
     h.mode = VolumeMode::BihSingle;
     CHECK_THROWS_WITH(vk::render_bih_dvr_vulkan(ctx, dbih, h), Catch::Contains("TfKind::Hook runs in your shader"));
+    CHECK_THROWS_WITH(vk::render_octree_dvr_vulkan(ctx, doct, h), Catch::Contains("TfKind::Hook runs in your shader"));
+    // The iso kernel takes the surface's colour from the hook too (shaded: colours within 5e-5).
+    h.iso = 0.5f;
+    Frame iso_host = render_octree_iso_cpu(OctreeView{oct_words, oct.bricks}, h, pool);
+    Frame iso_dev = vk::render_octree_iso_vulkan(ctx, doct, h, {}, &oct_hook_kernel);
+    CHECK(iso_host.steps == iso_dev.steps);
+    CHECK(compare_frames(iso_host, iso_dev).max_abs <= 5e-5);
+    CHECK(summed_alpha(iso_host) > 10.0);
 }

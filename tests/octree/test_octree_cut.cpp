@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <set>
 #include <vector>
 
 #include <sylva/octree/build.hpp>
@@ -204,7 +205,7 @@ TEST_CASE("octree cut: DVR through the full cut equals the marcher bit for bit; 
     p.tf.resize(256);
     for (std::uint32_t i = 0; i < 256; ++i) p.tf[i] = (i * 3 / 4) | (200u << 8) | ((255 - i) << 16) | ((i > 70 ? (i - 70) / 3 : 0) << 24);
     p.shading = true;
-    Frame ref = render_dvr_cpu(GridWords::from(g, GridBorder::clamp()), p, pool);
+    Frame ref = render_dvr_cpu(GridWords::from(g), p, pool);  // OctreeView's default border too: a constant 0
     octree::CutView v = octree::cut_view(p.camera, p.width, p.height);
     auto none = [](std::uint32_t) { return false; };
     std::vector<double> err;
@@ -224,4 +225,50 @@ TEST_CASE("octree cut: DVR through the full cut equals the marcher bit for bit; 
     CHECK(err[0] > 1e-3);      // the coarse cut does differ
     for (std::size_t i = 1; i < err.size(); ++i) CHECK(err[i] <= err[i - 1]);
     CHECK(err[0] > 4.0 * err[2]);
+}
+
+TEST_CASE("octree cut: an orthographic view refines by voxel size over pixel size, at any distance", "[octree][cut][rays]") {
+    // Seen orthographically every voxel of a level projects to the same number of pixels: the
+    // free cut stops at one level everywhere (the first whose voxel is at most lod_pixels
+    // pixels), where a pinhole view refines the near side deeper than the far one.
+    octree::Tree t = octree::build(blobs({96, 80, 70}, 31), {8, 1});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    Aabb box{vec3(0.0f), vec3(t.dims) * t.spacing};
+    Camera cam = Camera::framing(box, {0.3f, 0.5f, 1.0f});
+    VolumeRenderParams p;
+    p.width = p.height = 60;
+    p.camera = cam.ortho_frame(p.width, p.height, 0.5f * glm::length(box.extent()));
+    p.rays.source = RaySource::Ortho;
+    octree::CutView v = octree_cut_view(p);
+    REQUIRE(v.orthographic);
+    const float pixel = 2.0f * glm::length(p.camera.v) / float(p.height);  // world units
+    CHECK(v.pixel_angle == pixel);
+    auto none = [](std::uint32_t) { return false; };
+    for (float lod : {2.0f, 1.0f, 0.5f}) {
+        octree::Cut c = octree::select_cut(words, v, {lod, 0xFFFFFFFFu}, none);
+        std::uint32_t want = 0;  // the first level whose voxel projects to <= lod pixels
+        while (want + 1 < t.levels && float(1u << (t.levels - 1 - want)) / pixel > lod) ++want;
+        std::set<std::uint32_t> leaf_levels;
+        for (std::size_t n = 0; n < t.nodes.size(); ++n)
+            if (c.state[n] == octree::CutState::Leaf) leaf_levels.insert(t.nodes[n].level);
+        INFO("lod " << lod << " pixel " << pixel << " want level " << want);
+        CHECK(leaf_levels == std::set<std::uint32_t>{want});
+    }
+    // The same eye as a pinhole: near nodes are refined deeper than far ones.
+    octree::Cut pin = octree::select_cut(words, octree::cut_view(cam.frame(p.width, p.height), p.width, p.height), {1.0f, 0xFFFFFFFFu},
+                                         none);
+    std::set<std::uint32_t> pin_levels;
+    for (std::size_t n = 0; n < t.nodes.size(); ++n)
+        if (pin.state[n] == octree::CutState::Leaf) pin_levels.insert(t.nodes[n].level);
+    CHECK(pin_levels.size() > 1);
+    // The orthographic cut renders: host frames through it are finite and not empty.
+    std::vector<std::uint32_t> w = words;
+    octree::apply_cut(w, select_octree_cut(w, p, {1.0f, 0xFFFFFFFFu}, false));
+    p.tf.resize(256);
+    for (std::uint32_t i = 0; i < 256; ++i) p.tf[i] = (i * 3 / 4) | (200u << 8) | ((255 - i) << 16) | ((i > 70 ? (i - 70) / 3 : 0) << 24);
+    ThreadPool pool(2);
+    Frame f = render_octree_dvr_cpu(OctreeView{w, t.bricks}, p, pool);
+    double alpha = 0.0;
+    for (const vec4& c : f.rgba) alpha += c.w;
+    CHECK(alpha > 20.0);
 }

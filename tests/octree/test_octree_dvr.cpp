@@ -68,20 +68,44 @@ TEST_CASE("octree DVR: the full-resolution cut renders the marcher's image bit f
     for (const Case& c : cases) {
         octree::Tree t = octree::build(c.grid, pool, c.cfg);
         std::vector<std::uint32_t> words = octree::encode(t);
-        GridWords gw = GridWords::from(c.grid, GridBorder::clamp());
-        for (bool shading : {false, true}) {
-            VolumeRenderParams p = params(c.grid, 64, c.view, shading, 0.3f);
-            Frame ref = render_dvr_cpu(gw, p, pool);
-            Frame oct = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);
-            INFO(c.grid.dims.x << "x" << c.grid.dims.y << "x" << c.grid.dims.z << " B " << c.cfg.brick_size << " shading "
-                               << shading);
-            CHECK(differing(ref, oct) == 0);
-            CHECK(max_diff(ref, oct) == 0.0);
-            pixels += ref.rgba.size();
-            for (const vec4& v : ref.rgba) lit += v.w > 0.05f ? 1 : 0;
+        // Clamped edges, the default constant 0, and a constant the TF makes visible (samples within
+        // half a voxel of a face blend up to (v + 1) / 2 > 0.3): leaves on the volume's faces then
+        // show it, so they must not be culled by the range of their voxels alone.
+        for (GridBorder border : {GridBorder::clamp(), GridBorder{}, GridBorder::constant(1.0f)}) {
+            GridWords gw = GridWords::from(c.grid, border);
+            for (bool shading : {false, true}) {
+                VolumeRenderParams p = params(c.grid, 64, c.view, shading, 0.3f);
+                Frame ref = render_dvr_cpu(gw, p, pool);
+                Frame oct = render_octree_dvr_cpu(OctreeView{.words = words, .bricks = t.bricks, .border = border}, p, pool);
+                INFO(c.grid.dims.x << "x" << c.grid.dims.y << "x" << c.grid.dims.z << " B " << c.cfg.brick_size
+                                   << " shading " << shading << " border " << int(border.mode) << " " << border.value);
+                CHECK(differing(ref, oct) == 0);
+                CHECK(max_diff(ref, oct) == 0.0);
+                pixels += ref.rgba.size();
+                for (const vec4& v : ref.rgba) lit += v.w > 0.05f ? 1 : 0;
+            }
         }
     }
     CHECK(lit > pixels / 10);
+}
+
+TEST_CASE("octree DVR: a visible constant border shows on the faces of the volume", "[octree][dvr]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = blobs({40, 36, 30}, 25);
+    octree::Tree t = octree::build(g, pool, {8, 2});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    VolumeRenderParams p = params(g, 48, {0.3f, 0.5f, 1.0f}, false, 0.3f);
+    Frame clamped = render_octree_dvr_cpu(OctreeView{.words = words, .bricks = t.bricks, .border = GridBorder::clamp()}, p, pool);
+    Frame zero = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);  // default: constant 0
+    Frame skin = render_octree_dvr_cpu(OctreeView{.words = words, .bricks = t.bricks, .border = GridBorder::constant(1.0f)}, p,
+                                       pool);
+    // A visible constant border wraps the volume in a thin translucent skin: more opacity on
+    // every ray that crosses the volume than with either other mode.
+    CHECK(opacity_sum(skin) > opacity_sum(clamped) + 5.0);
+    CHECK(opacity_sum(skin) > opacity_sum(zero) + 5.0);
+    CHECK(differing(clamped, zero) > 0);
+    OctreeView bad{.words = words, .bricks = t.bricks, .border = GridBorder::constant(std::nanf(""))};
+    CHECK_THROWS_WITH(render_octree_dvr_cpu(bad, p, pool), Catch::Contains("border value is not finite"));
 }
 
 TEST_CASE("octree DVR: empty leaves are skipped (fewer samples), the image unchanged", "[octree][dvr]") {
@@ -90,7 +114,7 @@ TEST_CASE("octree DVR: empty leaves are skipped (fewer samples), the image uncha
     octree::Tree t = octree::build(g, pool, {8, 2});
     std::vector<std::uint32_t> words = octree::encode(t);
     VolumeRenderParams p = params(g, 48, {0.3f, 0.5f, 1.0f}, true, 0.55f);
-    Frame ref = render_dvr_cpu(GridWords::from(g, GridBorder::clamp()), p, pool);
+    Frame ref = render_dvr_cpu(GridWords::from(g), p, pool);  // both default to a constant 0 border
     Frame oct = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);
     CHECK(differing(ref, oct) == 0);
     std::uint64_t ref_steps = 0, oct_steps = 0;

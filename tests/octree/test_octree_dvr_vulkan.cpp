@@ -35,26 +35,31 @@ TEST_CASE("vulkan: octree DVR on the device equals the host renderer", "[parity]
     for (std::uint32_t i = 0; i < 256; ++i)
         p.tf[i] = (60 + i * 3 / 4) | ((230 - i / 2) << 8) | (100u << 16) | ((i < 90 ? 0u : (i - 90) / 2) << 24);
     ThreadPool pool(2);
-    vk::DeviceGrid grid(ctx, GridWords::from(g, GridBorder::clamp()));
     std::size_t lit = 0;
-    for (bool shading : {false, true}) {
-        p.shading = shading;
-        Frame marcher = vk::render_dvr_vulkan(ctx, grid, p);
-        for (std::uint32_t shift : {0u, 17u}) {  // 17: the bricks over four parts
-            for (std::uint32_t max_level : {0xFFFFFFFFu, 1u}) {
-                OctreeView view{words, t.bricks, max_level};
-                vk::DeviceOctree dev(ctx, view, shift);
-                Frame host = render_octree_dvr_cpu(view, p, pool);
-                Frame device = vk::render_octree_dvr_vulkan(ctx, dev, p);
-                INFO("shading " << shading << " shift " << shift << " max level " << max_level);
-                CHECK(host.steps == device.steps);
-                CHECK(max_diff(host, device) < 1e-5);
-                if (max_level == 0xFFFFFFFFu) CHECK(max_diff(marcher, device) < 1e-5);
-                for (const vec4& c : device.rgba) lit += c.w > 0.05f ? 1 : 0;
+    // Clamped edges, and a constant border the TF shows on the faces (1: they blend up to
+    // (v + 1) / 2, above the TF's threshold 90 / 255).
+    for (GridBorder border : {GridBorder::clamp(), GridBorder::constant(1.0f)}) {
+        vk::DeviceGrid grid(ctx, GridWords::from(g, border));
+        for (bool shading : {false, true}) {
+            p.shading = shading;
+            Frame marcher = vk::render_dvr_vulkan(ctx, grid, p);
+            for (std::uint32_t shift : {0u, 17u}) {  // 17: the bricks over four parts
+                for (std::uint32_t max_level : {0xFFFFFFFFu, 1u}) {
+                    OctreeView view{words, t.bricks, max_level, {}, {}, border};
+                    vk::DeviceOctree dev(ctx, view, shift);
+                    Frame host = render_octree_dvr_cpu(view, p, pool);
+                    Frame device = vk::render_octree_dvr_vulkan(ctx, dev, p);
+                    INFO("border " << int(border.mode) << " shading " << shading << " shift " << shift << " max level "
+                                   << max_level);
+                    CHECK(host.steps == device.steps);
+                    CHECK(max_diff(host, device) < 1e-5);
+                    if (max_level == 0xFFFFFFFFu) CHECK(max_diff(marcher, device) < 1e-5);
+                    for (const vec4& c : device.rgba) lit += c.w > 0.05f ? 1 : 0;
+                }
             }
         }
     }
-    CHECK(lit > 8 * std::size_t{p.width} * p.height / 20);  // the 8 images are not empty (~8% lit)
+    CHECK(lit > 16 * std::size_t{p.width} * p.height / 20);  // the 16 images are not empty (~8% lit)
     REQUIRE(t.bricks.size() > 3 * (std::size_t{1} << 17));  // the split really uses several parts
 
     // Octant masks (octree/octants.hpp): the device skips the same octants as the host, so the
@@ -64,12 +69,13 @@ TEST_CASE("vulkan: octree DVR on the device equals the host renderer", "[parity]
     CHECK(partial > 0);
     for (bool shading : {false, true}) {
         p.shading = shading;
-        OctreeView view{words, t.bricks, 0xFFFFFFFFu, {}, masks};
+        GridBorder border = shading ? GridBorder::constant(1.0f) : GridBorder::clamp();  // face octants kept
+        OctreeView view{words, t.bricks, 0xFFFFFFFFu, {}, masks, border};
         vk::DeviceOctree dev(ctx, view, 17u);
         Frame host = render_octree_dvr_cpu(view, p, pool);
         Frame device = vk::render_octree_dvr_vulkan(ctx, dev, p, {}, masks);
         Frame plain = vk::render_octree_dvr_vulkan(ctx, dev, p);
-        INFO("masked, shading " << shading);
+        INFO("masked, shading " << shading << " border " << int(border.mode));
         CHECK(host.steps == device.steps);
         CHECK(max_diff(host, device) < 1e-5);
         CHECK(max_diff(plain, device) == 0.0);
@@ -146,6 +152,18 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
     }
     CHECK(hits > 3 * std::size_t{p.width} * p.height / 20);  // ~8% of each iso image hits
     CHECK(coarse_leaves > 20);  // the cuts stop above the octree's leaves
+    // A constant border of 1 puts a surface on the faces (samples there blend up to (v + 1) / 2):
+    // set_border changes the device's later renders; hits equal the host's.
+    dev.set_index(words);
+    dev.set_border(GridBorder::constant(1.0f));
+    Frame host = render_octree_iso_cpu(OctreeView{.words = words, .bricks = t.bricks, .border = GridBorder::constant(1.0f)}, p, pool);
+    Frame device = vk::render_octree_iso_vulkan(ctx, dev, p);
+    CHECK(host.steps == device.steps);
+    CHECK(max_diff(host, device) < 1e-5);
+    std::size_t face_hits = 0;
+    for (const vec4& c : device.rgba) face_hits += c.w == 1.0f ? 1 : 0;
+    CHECK(face_hits > 2 * hits / 5);  // more than a third of the three iso images' hits together
+    CHECK_THROWS_WITH(dev.set_border(GridBorder::constant(INFINITY)), Catch::Contains("not finite"));
     std::vector<std::uint32_t> other = words;
     other.pop_back();
     CHECK_THROWS_AS(dev.set_index(other), Error);

@@ -26,15 +26,16 @@ using namespace octree_test;
 namespace {
 
 /// The grid iso marcher: over the marcher's span, the first lattice point t_k whose
-/// sylva_grid_density reaches iso; bisected 10 times against t_(k-1) when that lies in the span;
-/// shaded with sylva_grid_gradient in the TF's colour at iso.
+/// sylva_grid_sample (p's border mode) reaches iso; bisected 10 times against t_(k-1) when that
+/// lies in the span; shaded with sylva_grid_sample_gradient in the TF's colour at iso.
 vec4 grid_iso(shared::Words gw, shared::Words tw, const shared::SylvaDvrParams& p, vec3 o, vec3 dir, std::uint32_t& steps) {
     using namespace sylva::shared;
     steps = 0;
     vec3 d = sylva_dvr_unit(dir);
     vec2 span = sylva_dvr_clip(vec3(0.0f), sylva_dvr_grid_hi(p), o, d, 0.0f, sylva_inf());
     if (!(span.x <= span.y)) return vec4(0.0f);
-    auto density = [&](float t) { return sylva_grid_density(gw, p.dims, p.spacing, sylva_dvr_at(o, d, t)); };
+    SylvaGridDesc g = sylva_dvr_grid(p);
+    auto density = [&](float t) { return sylva_grid_sample(gw, g, sylva_dvr_at(o, d, t)); };
     for (std::uint32_t k = sylva_lattice_first(span.x, p.dt);; ++k) {
         float t = sylva_lattice_t(k, p.dt);
         if (!(t < span.y)) return vec4(0.0f);
@@ -50,17 +51,17 @@ vec4 grid_iso(shared::Words gw, shared::Words tw, const shared::SylvaDvrParams& 
             hit = hi;
         }
         vec4 c = sylva_tf_lookup(tw, p.tf_entries, p.iso);
-        vec3 g = sylva_grid_gradient(gw, p.dims, p.spacing, sylva_dvr_at(o, d, hit));
+        vec3 gr = sylva_grid_sample_gradient(gw, g, sylva_dvr_at(o, d, hit));
         SylvaDvrParams lit = p;
         lit.flags |= SYLVA_DVR_FLAG_SHADING;
-        vec3 rgb = sylva_dvr_shade(lit, vec3(c), vec3(g.x / p.spacing.x, g.y / p.spacing.y, g.z / p.spacing.z), d);
+        vec3 rgb = sylva_dvr_shade(lit, vec3(c), vec3(gr.x / p.spacing.x, gr.y / p.spacing.y, gr.z / p.spacing.z), d);
         return vec4(rgb, 1.0f);
     }
 }
 
 template <class X>
-Frame render_grid_iso(const volume::DensityGrid& g, const VolumeRenderParams& p, X& exec) {
-    GridWords gw = GridWords::from(g, GridBorder::clamp());
+Frame render_grid_iso(const volume::DensityGrid& g, const VolumeRenderParams& p, X& exec, GridBorder border = GridBorder::clamp()) {
+    GridWords gw = GridWords::from(g, border);
     std::vector<std::uint32_t> words = dvr_params(gw, p);
     shared::Words pw{words.data(), words.size()}, grid{gw.words.data(), gw.words.size()}, tw{p.tf.data(), p.tf.size()};
     shared::SylvaDvrParams sp = shared::sylva_dvr_params(pw);
@@ -92,14 +93,26 @@ TEST_CASE("octree iso: the full-resolution cut renders the grid iso marcher's im
     cases.push_back({blobs({45, 40, 38}, 22, vec3(1.0f, 0.5f, 2.0f)), {32, 2}, {-0.7f, 0.2f, -0.5f}, 0.45f});
     cases.push_back({volume::marschner_lobb({41, 41, 41}), {8, 2}, {0.1f, 1.0f, 0.2f}, 0.5f});
     cases.push_back({blobs({70, 9, 20}, 23), {4, 2}, {1.0f, 0.0f, 0.0f}, 0.4f});  // axis-aligned: rays in leaf planes
-    std::size_t pixels = 0, hits = 0;
+    std::size_t pixels = 0, hits = 0, border_hits[2] = {0, 0};
     std::uint64_t ref_steps = 0, oct_steps = 0;
     for (const Case& c : cases) {
         octree::Tree t = octree::build(c.grid, pool, c.cfg);
         std::vector<std::uint32_t> words = octree::encode(t);
         VolumeRenderParams p = iso_params(c.grid, 64, c.view, c.iso);
+        // Both constant borders: 0 (the default) and 1, which puts a surface on the volume's faces
+        // (at a face samples blend to (v + 1) / 2 >= iso; face leaves must not be culled by their
+        // voxels' range).
+        for (GridBorder border : {GridBorder{}, GridBorder::constant(1.0f)}) {
+            Frame ref = render_grid_iso(c.grid, p, pool, border);
+            Frame oct = render_octree_iso_cpu(OctreeView{.words = words, .bricks = t.bricks, .border = border}, p, pool);
+            INFO(c.grid.dims.x << "x" << c.grid.dims.y << "x" << c.grid.dims.z << " B " << c.cfg.brick_size << " border "
+                               << border.value);
+            CHECK(differing(ref, oct) == 0);
+            CHECK(total_samples(oct) <= total_samples(ref));
+            for (const vec4& v : ref.rgba) border_hits[border.value > 0.0f ? 1 : 0] += v.w == 1.0f ? 1 : 0;
+        }
         Frame ref = render_grid_iso(c.grid, p, pool);
-        Frame oct = render_octree_iso_cpu(OctreeView{words, t.bricks}, p, pool);
+        Frame oct = render_octree_iso_cpu(OctreeView{.words = words, .bricks = t.bricks, .border = GridBorder::clamp()}, p, pool);
         INFO(c.grid.dims.x << "x" << c.grid.dims.y << "x" << c.grid.dims.z << " B " << c.cfg.brick_size);
         CHECK(differing(ref, oct) == 0);
         pixels += ref.rgba.size();
@@ -110,6 +123,8 @@ TEST_CASE("octree iso: the full-resolution cut renders the grid iso marcher's im
     }
     // Range culling: fewer samples than the marcher's (which tests every lattice point).
     CHECK(oct_steps < ref_steps);
+    INFO("hits with border 0: " << border_hits[0] << ", with border 1: " << border_hits[1]);
+    CHECK(border_hits[1] > border_hits[0] + 500);  // the faces' surface shows
     CHECK(hits > pixels / 8);
     CHECK(hits < pixels * 9 / 10);
 }

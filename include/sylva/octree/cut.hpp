@@ -12,7 +12,8 @@
 // Selection: the root is in the working set; the node whose voxels (world size = the largest
 // spacing * 2^(L - 1 - level)) project largest, seen from the eye at the nearest point of the
 // node's box, is refined first (its existing children join the set) while that projection
-// exceeds lod_pixels and the set stays within max_nodes (inner nodes count: the paper's budget
+// exceeds lod_pixels (an orthographic view: voxel size / pixel size, the same at any distance)
+// and the set stays within max_nodes (inner nodes count: the paper's budget
 // is the nodes whose bricks are held). Octree leaves and nodes the caller calls terminal (empty
 // under the TF, or an isovalue outside [min, max]) are never refined. A node whose box holds the
 // eye projects infinitely large. Refinement stops at the first node that does not fit the
@@ -43,16 +44,21 @@ struct CutConfig {
     std::uint32_t max_nodes = 1u << 20;
 };
 
-/// What the cut depends on in the view: the eye (world space) and the angle one pixel subtends.
+/// What the cut depends on in the view: the eye (world space) and the angle one pixel subtends
+/// (pinhole), or the world size of a pixel (orthographic: every voxel of a level projects alike,
+/// wherever it is).
 struct CutView {
     vec3 eye{0.0f};
-    float pixel_angle = 1.0f;  ///< tangent of one pixel's angle at the image centre (vertical)
+    float pixel_angle = 1.0f;   ///< pinhole: tangent of one pixel's angle at the image centre (vertical);
+                                ///< orthographic: a pixel's height in world units
+    bool orthographic = false;  ///< the camera of RaySource::Ortho (sylva/shared/camera.h)
 };
 
-/// The cut's view of a camera frame rendered at width x height (the frame's v is half the image
-/// height at distance 1: a pixel is 2 |v| / height).
-inline CutView cut_view(const CameraFrame& cam, std::uint32_t /*width*/, std::uint32_t height) {
-    return {cam.eye, 2.0f * glm::length(cam.v) / static_cast<float>(std::max(height, 1u))};
+/// The cut's view of a camera frame rendered at width x height: a pinhole frame's v is half the
+/// image height at distance 1 (a pixel is 2 |v| / height of the distance), an orthographic
+/// frame's v is half the view rectangle's height in world units (a pixel is 2 |v| / height).
+inline CutView cut_view(const CameraFrame& cam, std::uint32_t /*width*/, std::uint32_t height, bool orthographic = false) {
+    return {cam.eye, 2.0f * glm::length(cam.v) / static_cast<float>(std::max(height, 1u)), orthographic};
 }
 
 /// Per node: where it stands in the cut.
@@ -76,6 +82,7 @@ inline float projected_voxel(const shared::SylvaOctHeader& h, std::uint32_t leve
     vec3 q = glm::clamp(v.eye, wlo, whi);
     float dist = glm::length(v.eye - q);
     float voxel = std::max(h.spacing.x, std::max(h.spacing.y, h.spacing.z)) * float(1u << (h.levels - 1u - level));
+    if (v.orthographic) return voxel / v.pixel_angle;
     if (!(dist > 0.0f)) return std::numeric_limits<float>::infinity();
     return voxel / (dist * v.pixel_angle);
 }

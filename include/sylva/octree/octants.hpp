@@ -14,7 +14,9 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <cmath>
 #include <limits>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -28,9 +30,11 @@ namespace sylva::octree {
 
 /// Per node, per octant, the [min, max] of the brick samples trilinear sampling inside the
 /// octant can read: `values[16 n + 2 o]` and `[16 n + 2 o + 1]`. Nodes without a resident
-/// brick get [-inf, +inf] (never skipped).
+/// brick get [-inf, +inf] (never skipped). `face[n]`: bit o set when octant o of node n touches a
+/// face of the volume (sylva_oct_face_octants), where a constant border blends in.
 struct OctantRanges {
     std::vector<float> values;
+    std::vector<std::uint8_t> face;
     [[nodiscard]] std::size_t nodes() const { return values.size() / 16u; }
 };
 
@@ -72,11 +76,14 @@ OctantRanges octant_ranges(std::span<const std::uint32_t> words, std::span<const
     if (h.valid == 0u) throw Error("octree::octant_ranges: not a valid encoded octree");
     OctantRanges r;
     r.values.assign(std::size_t{h.node_count} * 16u, 0.0f);
+    r.face.assign(h.node_count, 0u);
     const float inf = std::numeric_limits<float>::infinity();
     exec.parallel_for(0, h.node_count, 16, [&](std::size_t n0, std::size_t n1) {
         for (std::size_t n = n0; n < n1; ++n) {
             float* out = &r.values[16 * n];
             std::uint32_t node = std::uint32_t(n);
+            r.face[n] = std::uint8_t(shared::sylva_oct_face_octants(h, shared::sylva_oct_level(shared::sylva_oct_flags(w, node)),
+                                                                     shared::sylva_oct_coord(w, node)));
             std::uint32_t state = shared::sylva_oct_brick_state(shared::sylva_oct_flags(w, node));
             std::uint32_t brick = shared::sylva_oct_brick(w, node);
             if (state != SYLVA_OCT_BRICK_RESIDENT || brick >= h.brick_count) {
@@ -92,15 +99,31 @@ OctantRanges octant_ranges(std::span<const std::uint32_t> words, std::span<const
 /// One mask word per node for the transfer function whose opacity prefix counts are `tfsum`
 /// (render/octree_volume.hpp: tf_opacity_prefix; entries + 1 words): bit o set unless the TF
 /// gives zero opacity to all of octant o's range (the node-level test of octree_dvr.h).
-inline std::vector<std::uint32_t> octant_masks(const OctantRanges& r, std::span<const std::uint32_t> tfsum) {
+///
+/// Border. Samples near a face of the volume blend towards a constant border's value. Masks
+/// made without `constant_border` know the voxels only: rendered with a constant border
+/// (OctreeView::border), the octants on a face are then sampled whatever their bit. With
+/// `constant_border` = v the ranges of octants on a face include v and every word gets
+/// SYLVA_OCT_OCTMASK_BORDER (bit 8), which lets the renderer trust the face bits: masks for the
+/// border the frame is rendered with (v = its value) skip as much with that border as without.
+/// Such masks stay correct for a clamped border (they only set more bits); with another constant
+/// they are wrong, so make them again when the border changes, as when the TF does.
+inline std::vector<std::uint32_t> octant_masks(const OctantRanges& r, std::span<const std::uint32_t> tfsum,
+                                               std::optional<float> constant_border = std::nullopt) {
     if (tfsum.empty()) throw Error("octree::octant_masks: no transfer function prefix counts");
+    if (constant_border && !std::isfinite(*constant_border)) throw Error("octree::octant_masks: the border value is not finite");
+    if (r.face.size() != r.nodes()) throw Error("octree::octant_masks: octant ranges without their face bits");
     shared::Words s{tfsum.data(), tfsum.size()};
     const std::uint32_t entries = std::uint32_t(tfsum.size() - 1u);
-    std::vector<std::uint32_t> masks(r.nodes(), 0u);
+    std::vector<std::uint32_t> masks(r.nodes(), constant_border ? SYLVA_OCT_OCTMASK_BORDER : 0u);
     for (std::size_t n = 0; n < masks.size(); ++n)
         for (std::uint32_t o = 0; o < 8; ++o) {
             float lo = r.values[16 * n + 2 * o], hi = r.values[16 * n + 2 * o + 1];
             bool unbounded = !(lo > -std::numeric_limits<float>::infinity()) || !(hi < std::numeric_limits<float>::infinity());
+            if (constant_border && ((r.face[n] >> o) & 1u) != 0u) {
+                lo = std::min(lo, *constant_border);
+                hi = std::max(hi, *constant_border);
+            }
             if (unbounded || !shared::sylva_oct_tf_empty(s, entries, lo, hi)) masks[n] |= 1u << o;
         }
     return masks;

@@ -8,9 +8,10 @@
 //   Frame f = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);   // p as for the marcher
 //
 // With the full-resolution cut (the default max_level) and the builder's default border the
-// image equals render_dvr_cpu's over the same grid bit for bit (same lattice, same dt) when the
-// grid clamps at its edges (GridWords::from(g, GridBorder::clamp()): the brick aprons outside the
-// volume repeat the edge voxels; a constant border, the marcher's default, is not supported here yet).
+// image equals render_dvr_cpu's over the same grid bit for bit (same lattice, same dt) when both
+// read the same border mode: OctreeView::border, like GridWords, defaults to a constant 0 (VTK's
+// and NanoVDB's background outside the volume); GridBorder::clamp() repeats the edge voxels
+// (sylva/shared/octree_dvr.h: how the bricks serve either).
 //
 //   std::vector<std::uint32_t> w = words;                        // a view-dependent cut:
 //   octree::Cut c = select_octree_cut(w, p, {.lod_pixels = 1.0f, .max_nodes = 1u << 16}, false);
@@ -48,6 +49,9 @@ struct OctreeView {
     /// node); when not empty the DVR skips the octants of leaves the TF leaves empty (the same
     /// image, fewer samples). Empty: every octant of a visible leaf is sampled.
     std::span<const std::uint32_t> octmask = {};
+    /// What samples read outside the volume (sylva/render/grid_view.hpp): a constant 0 by
+    /// default, as the marcher's GridWords; GridBorder::clamp() repeats the edge voxels.
+    GridBorder border = {};
 };
 
 /// The TF's opacity prefix counts (sylva/shared/octree_dvr.h): entries + 1 words, word i = the
@@ -84,13 +88,21 @@ inline shared::SylvaOctHeader octree_header(const OctreeView& o) {
     return h;
 }
 
+/// The parameter block for an octree of header h read with border mode `border` (words 38-39;
+/// float32 bricks: the format and value-range words keep their defaults).
+inline std::vector<std::uint32_t> pack_octree(const shared::SylvaOctHeader& h, GridBorder border, const VolumeRenderParams& p) {
+    border.check();
+    std::vector<std::uint32_t> w = pack_dvr(h.dims, h.spacing, p);
+    GridSampling{.border = border}.pack(w);
+    return w;
+}
+
 }  // namespace detail
 
 /// Packs and checks the DVR parameters for the octree's volume (the marcher's, so the lattice
 /// and dt are the same as the marcher's over the same grid).
 inline std::vector<std::uint32_t> octree_dvr_params(const OctreeView& o, const VolumeRenderParams& p) {
-    shared::SylvaOctHeader h = detail::octree_header(o);
-    return detail::pack_dvr(h.dims, h.spacing, p);
+    return detail::pack_octree(detail::octree_header(o), o.border, p);
 }
 
 /// Renders the octree with the shared integrator (p.mode is ignored); steps = lattice samples
@@ -141,29 +153,51 @@ Frame render_octree_iso_cpu(const OctreeView& o, const VolumeRenderParams& p, X&
 }
 
 /// The nodes a frame of p cannot see anything in, never refined (section 4: empty nodes are
-/// terminal): for DVR (`iso` false) those whose [min, max] the TF maps to zero opacity, for
-/// isosurfaces those whose max stays below p.iso. Keeps a view of `words` (the index).
+/// terminal): for DVR (`iso` false) those whose densities (sylva_oct_sampled_range: [min, max],
+/// and on a face of the volume the constant border's value) the TF maps to zero opacity, for
+/// isosurfaces those whose greatest density stays below p.iso. Keeps a view of `words` (the
+/// index, checked by the caller: select_octree_cut reads its header).
 struct OctreeTerminal {
     std::span<const std::uint32_t> words;
     std::vector<std::uint32_t> tfsum;
+    shared::SylvaDvrParams border;  ///< only the border words (38, 39) are set
+    shared::SylvaOctHeader header;
     std::uint32_t entries = 0;
     float iso_value = 0.0f;
     bool iso = false;
-    OctreeTerminal(std::span<const std::uint32_t> w, const VolumeRenderParams& p, bool iso_mode)
-        : words(w), tfsum(tf_opacity_prefix(p)), entries(tf_entries(p)), iso_value(p.iso),
-          iso(iso_mode) {}
+    OctreeTerminal(std::span<const std::uint32_t> w, const VolumeRenderParams& p, bool iso_mode, GridBorder b = {})
+        : words(w), tfsum(tf_opacity_prefix(p)), border(border_params(b)),
+          header(shared::sylva_oct_decode_header(shared::Words{w.data(), w.size()})), entries(tf_entries(p)),
+          iso_value(p.iso), iso(iso_mode) {}
     bool operator()(std::uint32_t n) const {
-        vec2 r = shared::sylva_oct_range(shared::Words{words.data(), words.size()}, n);
+        shared::Words ow{words.data(), words.size()};
+        vec2 r = shared::sylva_oct_sampled_range(ow, header, border, n, shared::sylva_oct_level(shared::sylva_oct_flags(ow, n)),
+                                                 shared::sylva_oct_coord(ow, n));
         if (iso) return r.y < iso_value;
         return shared::sylva_oct_tf_empty(shared::Words{tfsum.data(), tfsum.size()}, entries, r.x, r.y);
     }
+
+private:
+    static shared::SylvaDvrParams border_params(GridBorder b) {
+        b.check();
+        std::vector<std::uint32_t> w(SYLVA_DVR_PARAM_WORDS, 0u);
+        GridSampling{.border = b}.pack(w);
+        return shared::sylva_dvr_params(shared::Words{w.data(), w.size()});
+    }
 };
 
-/// The cut for a frame of p (its camera and height) under cfg, OctreeTerminal's nodes terminal.
+/// The cut's view of a frame of p: its camera, pinhole or orthographic (p.rays.source; the
+/// caller's rays are taken as seen from p.camera's pinhole).
+inline octree::CutView octree_cut_view(const VolumeRenderParams& p) {
+    return octree::cut_view(p.camera, p.width, p.height, p.rays.source == RaySource::Ortho);
+}
+
+/// The cut for a frame of p (octree_cut_view) under cfg, OctreeTerminal's nodes terminal (for
+/// the border mode the frame is rendered with).
 inline octree::Cut select_octree_cut(std::span<const std::uint32_t> words, const VolumeRenderParams& p,
-                                     const octree::CutConfig& cfg, bool iso) {
-    OctreeTerminal terminal(words, p, iso);
-    return octree::select_cut(words, octree::cut_view(p.camera, p.width, p.height), cfg, terminal);
+                                     const octree::CutConfig& cfg, bool iso, GridBorder border = {}) {
+    OctreeTerminal terminal(words, p, iso, border);
+    return octree::select_cut(words, octree_cut_view(p), cfg, terminal);
 }
 
 }  // namespace sylva

@@ -18,6 +18,15 @@
 // ceil(dims / 2^s) of them) with the step adapted to the level (section 5.3): dt * 2^s, every
 // 2^s-th point of the same global lattice, with the opacity corrected for that step.
 //
+// Border modes (parameter words 38-39, grid_sample.h): with SYLVA_BORDER_CLAMP the brick
+// aprons' clamped voxels give the clamping marcher's samples; with SYLVA_BORDER_CONSTANT every
+// corner voxel outside the level's extent reads the border value instead of the brick (whatever
+// the apron holds), with sylva_grid_sample_constant's arithmetic, so the full-resolution cut
+// equals the marcher over a constant-border grid bit for bit too. A leaf touching a face of the
+// volume then also blends towards the border value: its range for TF and iso culling is widened
+// to include that value (sylva_oct_sampled_range), and its octants on the face are sampled
+// unless the octant masks were made for that border (sylva_oct_dvr_mask).
+//
 // Buffers: `words` the index, `bricks` the bricks, `tf` the RGBA8 transfer function (tf.h),
 // `tfsum` its opacity prefix counts: entries + 1 words, word i = the number of entries before
 // entry i whose alpha is > 0 (sylva/render/octree_volume.hpp: tf_opacity_prefix).
@@ -77,11 +86,17 @@ struct SylvaOctBrick {
     uvec3 dims;     ///< the level's extent in voxels: ceil(dims / 2^s), s = L - 1 - level
     vec3 spacing;   ///< world size of one voxel of the level: spacing * 2^s
     uint side;      ///< samples per brick side, B + 2 * border
+    uint border_mode;    ///< SYLVA_BORDER_* (parameter word 38)
+    float border_value;  ///< density outside the volume for SYLVA_BORDER_CONSTANT (word 39)
 };
 
-/// The brick of node `node` (level, coordinates) of an octree with header h.
-SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SYLVA_IN(SylvaOctHeader) h, uint node, uint level, uvec3 coord) {
+/// The brick of node `node` (level, coordinates) of an octree with header h, sampled with the
+/// border mode of the parameter block p.
+SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SYLVA_IN(SylvaOctHeader) h, SYLVA_IN(SylvaDvrParams) p, uint node, uint level,
+                                          uvec3 coord) {
     SylvaOctBrick b;
+    b.border_mode = p.border;
+    b.border_value = p.border_value;
     uint s = h.levels - 1u - level;
     uint w = 1u << s;
     b.side = h.brick_size + 2u * h.border;
@@ -104,9 +119,9 @@ SYLVA_FN_HOT float sylva_oct_brick_at(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick)
     return uintBitsToFloat(SYLVA_LOAD(bricks, b.base + x + b.side * (y + b.side * z)));
 }
 
-/// Trilinear density at world point p from the brick: sylva_grid_density's arithmetic
-/// (grid_sample.h) with the voxel reads taken from the brick.
-SYLVA_FN_HOT float sylva_oct_brick_density(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 p) {
+/// Trilinear density at world point p from the brick, edges clamped: sylva_grid_sample_clamped's
+/// arithmetic (grid_sample.h) with the voxel reads taken from the brick.
+SYLVA_FN_HOT float sylva_oct_brick_density_clamped(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 p) {
     vec3 u = vec3(sylva_grid_index(p.x, b.spacing.x, b.dims.x), sylva_grid_index(p.y, b.spacing.y, b.dims.y),
                   sylva_grid_index(p.z, b.spacing.z, b.dims.z));
     uvec3 i0 = uvec3(uint(u.x), uint(u.y), uint(u.z));
@@ -126,6 +141,57 @@ SYLVA_FN_HOT float sylva_oct_brick_density(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctB
     float c11 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l1.z),
                                 sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l1.z), f.x);
     return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+}
+
+/// Voxel (x, y, z) of the brick's level: the border value outside the level's extent, else the
+/// brick's sample (local index clamped into the brick).
+SYLVA_FN_HOT float sylva_oct_brick_voxel_or_border(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, int x, int y, int z) {
+    if (x < 0 || y < 0 || z < 0 || uint(x) >= b.dims.x || uint(y) >= b.dims.y || uint(z) >= b.dims.z) return b.border_value;
+    return sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, sylva_oct_brick_local(uint(x), b.origin.x, b.side),
+                              sylva_oct_brick_local(uint(y), b.origin.y, b.side), sylva_oct_brick_local(uint(z), b.origin.z, b.side));
+}
+
+/// Trilinear density at world point p from the brick, border constant: sylva_grid_sample_constant's
+/// arithmetic (grid_sample.h) with the voxels inside the level read from the brick.
+SYLVA_FN_HOT float sylva_oct_brick_density_constant(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 p) {
+    SYLVA_PRECISE vec3 v = vec3(p.x / b.spacing.x - 0.5f, p.y / b.spacing.y - 0.5f, p.z / b.spacing.z - 0.5f);
+    vec3 u = vec3(sylva_grid_clamp(v.x, -1.0f, float(b.dims.x)), sylva_grid_clamp(v.y, -1.0f, float(b.dims.y)),
+                  sylva_grid_clamp(v.z, -1.0f, float(b.dims.z)));
+    vec3 fl = vec3(floor(u.x), floor(u.y), floor(u.z));
+    int x0 = int(fl.x);
+    int y0 = int(fl.y);
+    int z0 = int(fl.z);
+    SYLVA_PRECISE vec3 f = vec3(u.x - fl.x, u.y - fl.y, u.z - fl.z);
+    if (x0 >= 0 && y0 >= 0 && z0 >= 0 && uint(x0) + 1u < b.dims.x && uint(y0) + 1u < b.dims.y &&
+        uint(z0) + 1u < b.dims.z) {  // all eight corners inside: brick reads without border tests
+        uvec3 l0 = uvec3(sylva_oct_brick_local(uint(x0), b.origin.x, b.side), sylva_oct_brick_local(uint(y0), b.origin.y, b.side),
+                         sylva_oct_brick_local(uint(z0), b.origin.z, b.side));
+        uvec3 l1 = uvec3(sylva_oct_brick_local(uint(x0) + 1u, b.origin.x, b.side),
+                         sylva_oct_brick_local(uint(y0) + 1u, b.origin.y, b.side),
+                         sylva_oct_brick_local(uint(z0) + 1u, b.origin.z, b.side));
+        return sylva_grid_blend(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l0.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l0.y, l1.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l1.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l1.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l1.z), f);
+    }
+    return sylva_grid_blend(sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0, y0, z0),
+                            sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0 + 1, y0, z0),
+                            sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0, y0 + 1, z0),
+                            sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0 + 1, y0 + 1, z0),
+                            sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0, y0, z0 + 1),
+                            sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0 + 1, y0, z0 + 1),
+                            sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0, y0 + 1, z0 + 1),
+                            sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0 + 1, y0 + 1, z0 + 1), f);
+}
+
+/// Trilinear density at world point p from the brick, in the brick's border mode.
+SYLVA_FN_HOT float sylva_oct_brick_density(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, vec3 p) {
+    if (b.border_mode == SYLVA_BORDER_CONSTANT) return sylva_oct_brick_density_constant(SYLVA_PASS_BUF(bricks), b, p);
+    return sylva_oct_brick_density_clamped(SYLVA_PASS_BUF(bricks), b, p);
 }
 
 /// Central-difference gradient at p from the brick: sylva_grid_gradient's arithmetic.
@@ -182,6 +248,10 @@ SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bric
     }
 }
 
+/// Bit 8 of an octant mask word: the face octants' bits account for a constant border
+/// (sylva/octree/octants.hpp, octant_masks with a border value; sylva_oct_dvr_mask).
+#define SYLVA_OCT_OCTMASK_BORDER 256u
+
 /// Octant masks (sylva/octree/octants.hpp builds them once a transfer function): one word per
 /// node, bit o (octant o = x | y << 1 | z << 2 of the node's brick, B/2 voxels of its level a
 /// side) set when the TF gives some opacity to the densities trilinear sampling inside that
@@ -190,10 +260,10 @@ SYLVA_FN void sylva_oct_dvr_segment(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bric
 /// image stays the marcher's bit for bit; only `steps` counts fewer samples. The pieces of the
 /// ray between the leaf's mid-planes each lie in one octant; a sample rounded across a plane
 /// reads voxels within the margin of one the octant ranges include. Mask 255: sample it all.
-/// In GLSL the masks are read only with SYLVA_OCT_OCTMASK defined (and `sylva_load_octmask`).
+/// Returns bits 0-8 (bit 8: SYLVA_OCT_OCTMASK_BORDER). In GLSL the masks are read only with SYLVA_OCT_OCTMASK defined (and `sylva_load_octmask`).
 SYLVA_FN uint sylva_oct_octant_mask(SYLVA_BUF(octmask), uint use_mask, uint node) {
 #if defined(__cplusplus) || defined(SYLVA_OCT_OCTMASK)
-    if (use_mask != 0u) return SYLVA_LOAD(octmask, node) & 255u;
+    if (use_mask != 0u) return SYLVA_LOAD(octmask, node) & 511u;
 #endif
     return 255u;
 }
@@ -253,11 +323,60 @@ SYLVA_FN void sylva_oct_dvr_octants(SYLVA_INOUT(SylvaDvrAcc) acc, SYLVA_BUF(bric
 /// opacity correction uses the step (dt_s / unit), so coarse cuts keep the image's opacity.
 SYLVA_FN float sylva_oct_level_dt(float dt, uint s) { return dt * float(1u << s); }
 
-/// True when node's brick is sampled: resident, and not empty under the TF.
-SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SYLVA_IN(SylvaDvrParams) p, uint node) {
+/// True when the node of level `level` with coordinates c touches a face of the volume (its box
+/// starts at voxel 0 or reaches dims on some axis): its samples near that face read the border.
+SYLVA_FN bool sylva_oct_on_face(SYLVA_IN(SylvaOctHeader) h, uint level, uvec3 c) {
+    uint w = sylva_oct_width(h, level);
+    return c.x == 0u || c.y == 0u || c.z == 0u || c.x * w + w >= h.dims.x || c.y * w + w >= h.dims.y ||
+           c.z * w + w >= h.dims.z;
+}
+
+/// The octants (bit o = x | y << 1 | z << 2, as the octant masks) of node (level, c) that touch a
+/// face of the volume: per axis the lower half when it starts at voxel 0 or reaches dims, the
+/// upper half when it reaches dims.
+SYLVA_FN uint sylva_oct_face_octants(SYLVA_IN(SylvaOctHeader) h, uint level, uvec3 c) {
+    uint w = sylva_oct_width(h, level);
+    uint half_w = w / 2u;
+    uint m = 0u;
+    if (c.x == 0u || c.x * w + half_w >= h.dims.x) m = m | 0x55u;
+    if (c.x * w + w >= h.dims.x) m = m | 0xAAu;
+    if (c.y == 0u || c.y * w + half_w >= h.dims.y) m = m | 0x33u;
+    if (c.y * w + w >= h.dims.y) m = m | 0xCCu;
+    if (c.z == 0u || c.z * w + half_w >= h.dims.z) m = m | 0x0Fu;
+    if (c.z * w + w >= h.dims.z) m = m | 0xF0u;
+    return m;
+}
+
+/// The densities sampling node (level, c) can return under p's border mode: the node's stored
+/// [min, max], widened to include the border value for a node on a face of the volume when the
+/// border is constant (section 4's culling stays conservative).
+SYLVA_FN vec2 sylva_oct_sampled_range(SYLVA_BUF(words), SYLVA_IN(SylvaOctHeader) h, SYLVA_IN(SylvaDvrParams) p, uint node, uint level,
+                                      uvec3 c) {
+    vec2 r = sylva_oct_range(SYLVA_PASS_BUF(words), node);
+    if (p.border == SYLVA_BORDER_CONSTANT && sylva_oct_on_face(h, level, c))
+        r = vec2(sylva_min(r.x, p.border_value), sylva_max(r.y, p.border_value));
+    return r;
+}
+
+/// True when node's brick is sampled: resident, and not empty under the TF over the densities
+/// it can return (sylva_oct_sampled_range).
+SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SYLVA_IN(SylvaDvrParams) p, SYLVA_IN(SylvaOctHeader) h, uint node,
+                                    uint level, uvec3 c) {
     uint state = sylva_oct_brick_state(sylva_oct_flags(SYLVA_PASS_BUF(words), node));
-    vec2 range = sylva_oct_range(SYLVA_PASS_BUF(words), node);
-    return state == SYLVA_OCT_BRICK_RESIDENT && !sylva_oct_tf_empty(SYLVA_PASS_BUF(tfsum), p.tf_entries, range.x, range.y);
+    if (state != SYLVA_OCT_BRICK_RESIDENT) return false;
+    vec2 range = sylva_oct_sampled_range(SYLVA_PASS_BUF(words), h, p, node, level, c);
+    return !sylva_oct_tf_empty(SYLVA_PASS_BUF(tfsum), p.tf_entries, range.x, range.y);
+}
+
+/// The octants of leaf `node` (level, c) to sample under p's border mode: its mask's bits, and
+/// under a constant border the octants on a face of the volume too unless the masks were made
+/// for that border (SYLVA_OCT_OCTMASK_BORDER): masks of the voxels alone do not know the
+/// densities a face blends towards.
+SYLVA_FN uint sylva_oct_dvr_mask(SYLVA_BUF(octmask), uint use_mask, SYLVA_IN(SylvaDvrParams) p, SYLVA_IN(SylvaOctHeader) h, uint node,
+                                 uint level, uvec3 c) {
+    uint m = sylva_oct_octant_mask(SYLVA_PASS_BUF(octmask), use_mask, node);
+    if (p.border == SYLVA_BORDER_CONSTANT && (m & SYLVA_OCT_OCTMASK_BORDER) == 0u) m = m | sylva_oct_face_octants(h, level, c);
+    return m & 255u;
 }
 
 /// sylva_oct_dvr_ray that also marks in `seen` every cut leaf the ray reached before it
@@ -286,19 +405,19 @@ SYLVA_FN vec4 sylva_oct_dvr_ray_masked(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLV
     sylva_oct_begin(it, h, origin, d, span.x, span.y, max_level);
     float t_lo = span.x;
     bool last_visible = false;
-    SylvaOctBrick b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, 0u, 0u, uvec3(0u, 0u, 0u));
+    SylvaOctBrick b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, p, 0u, 0u, uvec3(0u, 0u, 0u));
     uint node;
     float t0;
     float t1;
     while (acc.alpha < p.alpha_stop && sylva_oct_next(it, SYLVA_PASS_BUF(words), node, t0, t1)) {
         visits = visits + 1u;
         sylva_oct_mark_seen(seen, node);
-        last_visible = sylva_oct_dvr_visible(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(tfsum), p, node);
+        last_visible = sylva_oct_dvr_visible(SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(tfsum), p, h, node, it.level, it.coord);
         if (last_visible) {
-            b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, node, it.level, it.coord);
+            b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, p, node, it.level, it.coord);
             dt = sylva_oct_level_dt(p.dt, h.levels - 1u - it.level);
             units = dt / p.unit;
-            uint mask = sylva_oct_octant_mask(SYLVA_PASS_BUF(octmask), use_octmask, node);
+            uint mask = sylva_oct_dvr_mask(SYLVA_PASS_BUF(octmask), use_octmask, p, h, node, it.level, it.coord);
             sylva_oct_dvr_octants(acc, SYLVA_PASS_BUF(bricks), SYLVA_PASS_BUF(tf), p, b, it, mask, origin, d, t_lo, t1, dt,
                                   units, steps);
         }

@@ -13,8 +13,9 @@
 // lattice points can read (sylva/octree/build.hpp: the range covers the box's trilinear reach
 // plus one voxel for rounding), so none of them reaches the iso value. With the full-resolution
 // cut the hit lattice point, the bisection and the shading read the same voxels as a grid
-// marcher with sylva_grid_density / sylva_grid_gradient would (border 2), so the image equals
-// that marcher's bit for bit (tests/octree/test_octree_iso.cpp checks it against one).
+// marcher with sylva_grid_sample / sylva_grid_sample_gradient would (border 2; either border mode
+// of the parameter block, octree_dvr.h), so the image equals that marcher's bit for bit
+// (tests/octree/test_octree_iso.cpp checks it against one).
 //
 // Buffers: `words` the index, `bricks` the bricks, `tf` the RGBA8 transfer function (tf.h).
 #ifndef SYLVA_SHARED_OCTREE_ISO_H
@@ -76,10 +77,12 @@ SYLVA_FN vec4 sylva_oct_iso_shade(SYLVA_BUF(bricks), SYLVA_BUF(tf), SYLVA_IN(Syl
     return vec4(rgb.x, rgb.y, rgb.z, 1.0f);
 }
 
-/// True when node's brick is searched: resident and its max reaches iso.
-SYLVA_FN bool sylva_oct_iso_visible(SYLVA_BUF(words), float iso, uint node) {
+/// True when node's brick is searched: resident and the greatest density it can return
+/// (sylva_oct_sampled_range: the border's too on a face, with a constant border) reaches p.iso.
+SYLVA_FN bool sylva_oct_iso_visible(SYLVA_BUF(words), SYLVA_IN(SylvaDvrParams) p, SYLVA_IN(SylvaOctHeader) h, uint node, uint level,
+                                    uvec3 c) {
     uint state = sylva_oct_brick_state(sylva_oct_flags(SYLVA_PASS_BUF(words), node));
-    return state == SYLVA_OCT_BRICK_RESIDENT && sylva_oct_range(SYLVA_PASS_BUF(words), node).y >= iso;
+    return state == SYLVA_OCT_BRICK_RESIDENT && sylva_oct_sampled_range(SYLVA_PASS_BUF(words), h, p, node, level, c).y >= p.iso;
 }
 
 /// sylva_oct_iso_ray that also marks in `seen` every cut leaf the ray reached up to its hit (the
@@ -103,7 +106,7 @@ SYLVA_FN vec4 sylva_oct_iso_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_
     float t_lo = span.x;
     float dt = p.dt;
     bool last_visible = false;
-    SylvaOctBrick b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, 0u, 0u, uvec3(0u, 0u, 0u));
+    SylvaOctBrick b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, p, 0u, 0u, uvec3(0u, 0u, 0u));
     uint node;
     float t0;
     float t1;
@@ -111,9 +114,9 @@ SYLVA_FN vec4 sylva_oct_iso_ray_seen(SYLVA_BUF(words), SYLVA_BUF(bricks), SYLVA_
     while (sylva_oct_next(it, SYLVA_PASS_BUF(words), node, t0, t1)) {
         visits = visits + 1u;
         sylva_oct_mark_seen(seen, node);
-        last_visible = sylva_oct_iso_visible(SYLVA_PASS_BUF(words), p.iso, node);
+        last_visible = sylva_oct_iso_visible(SYLVA_PASS_BUF(words), p, h, node, it.level, it.coord);
         if (last_visible) {
-            b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, node, it.level, it.coord);
+            b = sylva_oct_brick_of(SYLVA_PASS_BUF(words), h, p, node, it.level, it.coord);
             dt = sylva_oct_level_dt(p.dt, h.levels - 1u - it.level);
             if (sylva_oct_iso_segment(SYLVA_PASS_BUF(bricks), b, origin, d, t_lo, t1, dt, p.iso, span.x, steps, t_hit)) {
                 status = SYLVA_ITER_DONE;

@@ -39,7 +39,9 @@ public:
           index_(ctx, view.words.size() * 4),
           brick_words_(static_cast<std::uint32_t>(view.bricks.size())),
           max_level_(view.max_level),
-          header_words_(view.words.begin(), view.words.begin() + SYLVA_OCT_HEADER_WORDS) {
+          header_words_(view.words.begin(), view.words.begin() + SYLVA_OCT_HEADER_WORDS),
+          border_(view.border) {
+        border_.check();
         index_.upload(view.words);
     }
     /// An octree whose bricks arrive later (the out-of-core brick pool,
@@ -97,11 +99,26 @@ public:
     [[nodiscard]] const shared::SylvaOctHeader& header() const { return header_; }
     [[nodiscard]] std::uint32_t brick_words() const { return brick_words_; }
     [[nodiscard]] std::uint32_t max_level() const { return max_level_; }
+    /// What samples read outside the volume (OctreeView::border; a constant 0 for an octree made
+    /// from a pool's words until set_border).
+    [[nodiscard]] GridBorder border() const { return border_; }
+    /// Sets the border mode of later renders (throws sylva::Error for a non-finite value).
+    void set_border(GridBorder b) {
+        b.check();
+        border_ = b;
+    }
+    /// Specialization constants of octree_dvr.comp: the bricks' split shift and parts holding data.
+    [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {bricks_.shift, parts_}; }
     /// The kernel for this octree's brick split, built on first use and kept.
     Kernel& kernel(Context& ctx) {
-        std::array<std::uint32_t, 2> constants{bricks_.shift, parts_};
-        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 12, 20, constants);
+        if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 12, 20, constants());
         return *kernel_;
+    }
+    /// A kernel of your SPIR-V built from sylva/shared/octree_dvr_main.glsl (the octree kernel's
+    /// bindings, push and specialization constants, e.g. with a GLSL TF hook, sylva/shared/tf.h),
+    /// for render_octree_dvr_vulkan / render_octree_iso_vulkan(..., &kernel).
+    [[nodiscard]] Kernel user_kernel(Context& ctx, std::span<const std::uint32_t> spirv) const {
+        return Kernel(ctx, spirv, 12, 20, constants());
     }
     [[nodiscard]] Buffer* brick_part(std::size_t i) { return &bricks_.parts[i]; }
     [[nodiscard]] Buffer* index() { return &index_; }
@@ -143,6 +160,7 @@ private:
     std::uint32_t brick_words_;
     std::uint32_t max_level_;
     std::vector<std::uint32_t> header_words_;
+    GridBorder border_{};
     std::optional<Kernel> kernel_;
     std::optional<Buffer> seen_, dummy_, masks_, mask_dummy_;
     std::vector<std::uint32_t> mask_words_;  ///< what masks_ holds
@@ -161,10 +179,10 @@ struct DeviceBrickPool {
 namespace detail {
 
 inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p, std::uint32_t mode,
-                                  std::span<std::uint32_t> seen, std::span<const std::uint32_t> octmask) {
-    std::vector<std::uint32_t> params = sylva::detail::pack_dvr(oct.header().dims, oct.header().spacing, p);
+                                  std::span<std::uint32_t> seen, std::span<const std::uint32_t> octmask, Kernel* kernel) {
+    std::vector<std::uint32_t> params = sylva::detail::pack_octree(oct.header(), oct.border(), p);
     std::vector<std::uint32_t> tfsum = tf_opacity_prefix(p);
-    Buffer tf = detail::tf_binding(ctx, p);
+    Buffer tf = detail::tf_binding(ctx, p, kernel != nullptr);
     Buffer sum(ctx, tfsum.size() * 4), pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 5 * 4);
     sum.upload(tfsum);
     pb.upload(params);
@@ -178,7 +196,7 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
                                       octmask.empty() ? 0u : 1u};
     Frame f{p.width, p.height, std::vector<vec4>(std::size_t{p.width} * p.height),
             std::vector<std::uint32_t>(std::size_t{p.width} * p.height), 0.0};
-    f.ms = ctx.dispatch(oct.kernel(ctx), bind, push.data(), sizeof push, groups_for(p.width, 8), groups_for(p.height, 8));
+    f.ms = ctx.dispatch(kernel ? *kernel : oct.kernel(ctx), bind, push.data(), sizeof push, groups_for(p.width, 8), groups_for(p.height, 8));
     std::vector<std::uint32_t> px(std::size_t{p.width} * p.height * 5);
     out.download(px);
     for (std::size_t i = 0; i < f.rgba.size(); ++i) {
@@ -199,16 +217,20 @@ inline Frame render_octree_vulkan(Context& ctx, DeviceOctree& oct, const VolumeR
 /// With `seen` (one word per node) the visibility feedback of sylva/shared/octree_dvr.h is
 /// OR-ed into it (nonzero: a ray reached the cut leaf). With `octmask` (one word per node,
 /// sylva/octree/octants.hpp) empty octants of leaves are skipped: the same image, fewer samples.
+/// With `kernel`, your build of sylva/shared/octree_dvr_main.glsl (e.g. with a TF hook; made with
+/// oct.user_kernel) runs instead of the library's octree_dvr.comp.
 inline Frame render_octree_dvr_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p,
-                                      std::span<std::uint32_t> seen = {}, std::span<const std::uint32_t> octmask = {}) {
-    return detail::render_octree_vulkan(ctx, oct, p, 0u, seen, octmask);
+                                      std::span<std::uint32_t> seen = {}, std::span<const std::uint32_t> octmask = {},
+                                      Kernel* kernel = nullptr) {
+    return detail::render_octree_vulkan(ctx, oct, p, 0u, seen, octmask, kernel);
 }
 
 /// The first hit of p.iso on the device; same output as render_octree_iso_cpu (hits and samples
-/// exact; colours within the shading's transcendentals' few ulp).
+/// exact; colours within the shading's transcendentals' few ulp). `kernel` as for
+/// render_octree_dvr_vulkan.
 inline Frame render_octree_iso_vulkan(Context& ctx, DeviceOctree& oct, const VolumeRenderParams& p,
-                                      std::span<std::uint32_t> seen = {}) {
-    return detail::render_octree_vulkan(ctx, oct, p, 1u, seen, {});
+                                      std::span<std::uint32_t> seen = {}, Kernel* kernel = nullptr) {
+    return detail::render_octree_vulkan(ctx, oct, p, 1u, seen, {}, kernel);
 }
 
 }  // namespace sylva::vk
