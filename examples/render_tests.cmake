@@ -422,12 +422,32 @@ sylva_render_test(kd_volume RC 2 ERR "--index kd renders particles"
 
 # --camera ortho (issue 17) on both backends through the marcher, the kd-tree and the octree (in
 # core, and out of core with its cut chosen for the orthographic view), --repeat's median and
-# minimum in the stats JSON, the leaf boxes drawn with it; ortho is refused where the pinhole is
-# the only camera (particles).
+# minimum in the stats JSON, the leaf boxes drawn with it; and particles through every index,
+# leaf order and exact order, and an animation (their images against the host's and a brute-force
+# reference: tests/render/test_particle_rays.cpp).
 foreach(backend cpu vulkan)
   if(backend STREQUAL "vulkan" AND NOT SYLVA_WITH_VULKAN)
     continue()
   endif()
+  foreach(pindex bih kd octree)
+    foreach(order leaf exact)
+      if(pindex STREQUAL "kd" AND order STREQUAL "leaf" AND backend STREQUAL "vulkan")
+        continue()  # refused: the kd-tree's leaf order renders on the host only
+      endif()
+      sylva_render_test(camera_ortho_particles_${pindex}_${order}_${backend} KEYS_ONLY
+        ARGS --count 2000 --index ${pindex} --order ${order} --backend ${backend} --camera ortho --size 64x48 --quiet
+             -o ${_out}/ortho_p_${pindex}_${order}_${backend}.png --stats-json ${_out}/ortho_p_${pindex}_${order}_${backend}.json
+        FILES ${_out}/ortho_p_${pindex}_${order}_${backend}.png JSON ${_out}/ortho_p_${pindex}_${order}_${backend}.json
+        EXTRA_KEYS camera
+        JSON_EQUAL camera=ortho errors=0 JSON_MIN visible_pixels=100)
+    endforeach()
+  endforeach()
+  sylva_render_test(camera_ortho_animation_${backend} KEYS_ONLY
+    ARGS --count 2000 --animate 3 --backend ${backend} --camera ortho --size 64x48 --quiet
+         -o ${_out}/ortho_anim_${backend}.png --stats-json ${_out}/ortho_anim_${backend}.json
+    FILES ${_out}/ortho_anim_${backend}.png JSON ${_out}/ortho_anim_${backend}.json
+    EXTRA_KEYS camera
+    JSON_EQUAL camera=ortho errors=0 JSON_MIN visible_pixels=100)
   sylva_render_test(camera_ortho_ooc_${backend} KEYS_ONLY
     ARGS --volume procedural --index octree --frames 4 --backend ${backend} --camera ortho --border clamp --size 64x48
          --quiet -o ${_out}/ortho_ooc_${backend}.png --stats-json ${_out}/ortho_ooc_${backend}.json
@@ -472,8 +492,6 @@ foreach(backend cpu vulkan)
       JSON_EQUAL ${_grid_json} voxels=16777216 errors=0 JSON_MIN visible_pixels=100)
   endforeach()
 endforeach()
-sylva_render_test(camera_ortho_particles RC 2 ERR "--camera ortho renders volumes \\(not particles\\)"
-  ARGS --count 1000 --camera ortho -o ${_out}/x.png)
 
 # The command line through CLI11 and the stats JSON through nlohmann-json (issue 16, item 6):
 # --help (and -h after bad options) exits 0 listing every option registered in options.cpp;

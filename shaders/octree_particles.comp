@@ -6,9 +6,12 @@
 // Bindings: 0-3 the element octree's index words (SYLVA_SPLIT_WORDS_COUNTED: indices over
 // 128 MiB work); 4-7 the particle records, 8 words each in the octree's element order
 // (sylva/shared/particles.h); 8 output, 5 words per pixel: premultiplied R, G, B, alpha (float
-// bits) and the walk's step count, 0xFFFFFFFF where the ray stopped with an error.
+// bits) and the walk's step count, 0xFFFFFFFF where the ray stopped with an error; 9 the
+// caller's rays, 6 words a pixel (sylva/shared/ray_buffer.h; read only when ray_source is
+// SYLVA_RAYS_BUFFER, else a dummy).
 // Push constants: camera (12 floats, sylva/shared/camera.h), width, height, index word count,
-// record count, alpha_stop.
+// record count, alpha_stop, ray source (SYLVA_RAYS_*: the camera as pinhole or orthographic, or
+// binding 9).
 // Specialization constants: 0/1 split shift and parts holding data of the index, 2/3 the same
 // for the records (parts 1: every load reads part 0 directly).
 //
@@ -26,6 +29,7 @@ layout(constant_id = 3) const uint ELEMS_PARTS = 4u;
 SYLVA_SPLIT_WORDS_COUNTED(words, 0, WORDS_SHIFT, WORDS_PARTS)
 SYLVA_SPLIT_WORDS_COUNTED(elems, 4, ELEMS_SHIFT, ELEMS_PARTS)
 layout(std430, binding = 8) writeonly buffer Pixels { uint pixels[]; };
+layout(std430, binding = 9) readonly buffer Rays { uint ray_words[]; };
 layout(push_constant) uniform Push {
     float cam[12];  // eye, forward w, right u, up v (sylva/shared/camera.h)
     uint width;
@@ -33,9 +37,12 @@ layout(push_constant) uniform Push {
     uint word_count;
     uint records;
     float alpha_stop;
+    uint ray_source;
 } pc;
 
-#include "sylva/shared/camera.h"
+uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i] : 0u; }
+
+#include "sylva/shared/ray_buffer.h"
 #include "sylva/shared/octree_particles.h"
 
 void main() {
@@ -45,11 +52,11 @@ void main() {
     vec3 w = vec3(pc.cam[3], pc.cam[4], pc.cam[5]);
     vec3 u = vec3(pc.cam[6], pc.cam[7], pc.cam[8]);
     vec3 v = vec3(pc.cam[9], pc.cam[10], pc.cam[11]);
-    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, pc.width, pc.height);
+    SylvaRay ray = sylva_pixel_ray_from(0u, pc.ray_source, eye, w, u, v, px.x, px.y, pc.width, pc.height);
     uint steps;
     uint status;
-    vec4 c = sylva_octe_render_particles(0u, pc.word_count, 0u, pc.records, eye, d, 0.0f, sylva_inf(), pc.alpha_stop,
-                                         steps, status);
+    vec4 c = sylva_octe_render_particles(0u, pc.word_count, 0u, pc.records, ray.origin, ray.dir, 0.0f, sylva_inf(),
+                                         pc.alpha_stop, steps, status);
     bool cut_short = status == SYLVA_ITER_RUNNING && c.w < pc.alpha_stop;
     uint at = (px.y * pc.width + px.x) * 5u;
     pixels[at] = floatBitsToUint(c.x);

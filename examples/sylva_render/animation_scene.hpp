@@ -173,7 +173,7 @@ public:
     sylva::Frame render(std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
                         const sylva::CameraFrame& cam) {
         using namespace sylva;
-        ParticleRenderConfig rc{o_.alpha_stop};
+        ParticleRenderConfig rc = particle_config(o_);
         if (!on_device()) {
             if (o_.order == "exact") return render_exact_particles(o_, words, records, cam, pool_, device_);
             if (o_.index == "bih") return render_particles_cpu(words, records, cam, o_.width, o_.height, pool_, rc);

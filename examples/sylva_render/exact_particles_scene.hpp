@@ -34,6 +34,7 @@
 #endif
 
 #include "options.hpp"
+#include "particle_view.hpp"
 #include "stats.hpp"
 
 namespace sylva_render {
@@ -81,7 +82,7 @@ inline sylva::Frame render_exact_particles(const Options& o, std::span<const std
                                            std::span<const std::uint32_t> records, const sylva::CameraFrame& cam,
                                            sylva::ThreadPool& pool, std::string& device) {
     using namespace sylva;
-    ParticleRenderConfig rc{o.alpha_stop};
+    ParticleRenderConfig rc = particle_config(o);
     if (o.backend == "cpu") {
         device = "host, " + std::to_string(pool.concurrency()) + " threads";
         if (o.index == "kd") return render_elements_cpu<Sphere, KdIndex>(words, records, cam, o.width, o.height, pool, rc);
@@ -172,10 +173,7 @@ inline int run_particle_exact(const Options& o, std::span<const sylva::Sphere> s
         s.build_ms = t.stats.build_ms;
     }
     s.bytes = words.size() * 4 + records.size() * 4;
-    Aabb box;
-    for (const Sphere& p : spheres) box.extend(bounds_of(p));
-    sylva::vec3 from = o.view ? sylva::vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : sylva::vec3(0.4f, 0.7f, 1.0f);
-    CameraFrame cam = Camera::framing(box, from).frame(o.width, o.height);
+    CameraFrame cam = particle_camera(o, spheres);
     Frame f = render_exact_particles(o, words, records, cam, pool, s.device);
     write_frame(o.output, f, sylva::vec3(0.0f));
     if (!o.heatmap.empty()) s.heatmap_peak = write_heatmap(o.heatmap, f);

@@ -21,18 +21,10 @@
 #include <sylva/render/particles.hpp>
 
 #include "options.hpp"
+#include "particle_view.hpp"
 #include "stats.hpp"
 
 namespace sylva_render {
-
-/// The camera every particle scene uses: framing the particles' box from --view.
-inline sylva::CameraFrame particle_camera(const Options& o, std::span<const sylva::Sphere> spheres) {
-    using namespace sylva;
-    Aabb box;
-    for (const Sphere& p : spheres) box.extend(bounds_of(p));
-    vec3 from = o.view ? vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : vec3(0.4f, 0.7f, 1.0f);
-    return Camera::framing(box, from).frame(o.width, o.height);
-}
 
 /// Writes the frame and the statistics; the exit status.
 inline int finish_particle_frame(const Options& o, const sylva::Frame& f, Stats& s) {
@@ -57,7 +49,7 @@ inline int run_particle_kd(const Options& o, std::span<const sylva::Sphere> sphe
     s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
     Frame f = render_particles_kd_cpu(words, records, particle_camera(o, spheres), o.width, o.height, pool,
-                                      ParticleRenderConfig{o.alpha_stop});
+                                      particle_config(o));
     s.index = "kd";
     s.elements = spheres.size();
     s.nodes = t.nodes.size();

@@ -23,6 +23,7 @@
 #include "exact_particles_scene.hpp"
 #include "kd_particles_scene.hpp"
 #include "particle_octree_scene.hpp"
+#include "particle_view.hpp"
 #include "stats.hpp"
 #include "volume_scene.hpp"
 
@@ -62,7 +63,7 @@ std::vector<std::uint32_t> encode_tree(const Options& o, const bih::Tree& t, std
 
 Frame render(const Options& o, std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
              const CameraFrame& cam, ThreadPool& pool, std::string& device) {
-    ParticleRenderConfig rc{o.alpha_stop};
+    ParticleRenderConfig rc = particle_config(o);
     if (o.backend == "cpu") {
         device = "host, " + std::to_string(pool.concurrency()) + " threads";
         return render_particles_cpu(words, records, cam, o.width, o.height, pool, rc);
@@ -84,6 +85,7 @@ int run(const Options& o) {
     std::vector<Sphere> spheres = load_scene(o, s.input);
     ThreadPool pool(o.threads);
     s.order = o.order;
+    s.camera = o.camera;
     if (o.animate > 0) return run_particle_animation(o, spheres, pool, s);
     if (o.order == "exact") return run_particle_exact(o, spheres, pool, s);
     if (o.particle_kd()) return run_particle_kd(o, spheres, pool, s);
@@ -94,8 +96,7 @@ int run(const Options& o) {
     std::vector<std::uint32_t> records;
     if (o.payload == "range") records = pack_particles(std::span<const Sphere>(spheres), tree.order);
     s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    vec3 from = o.view ? vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : vec3(0.4f, 0.7f, 1.0f);
-    CameraFrame cam = Camera::framing(tree.bounds, from).frame(o.width, o.height);
+    CameraFrame cam = particle_camera(o, tree.bounds);
     Frame f = render(o, words, records, cam, pool, s.device);
     write_frame(o.output, f, vec3(0.0f));
     if (!o.heatmap.empty()) s.heatmap_peak = write_heatmap(o.heatmap, f);

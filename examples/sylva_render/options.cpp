@@ -292,6 +292,9 @@ void add_general(CLI::App& app, Options& o) {
     g.text("--heatmap", o.heatmap, "FILE", "the traversal cost of each pixel as an image");
     g.converted("--view", o.view, read_vec3, "X,Y,Z", "direction from the centre to the eye",
                 "0.4,0.7,1 for particles, 0.4,0.3,1 for volumes");
+    g.choice("--camera", o.camera, {"pinhole", "ortho"},
+             "primary rays framing the volume or the particles from --view (ortho: a view rectangle as high as "
+             "their bounding sphere, rays along the view direction)");
     g.number("--threads", o.threads, 0, 1024, "T", "worker threads, 0: all cores");
     g.flag("--quiet", o.quiet, "no progress bars and no statistics on stdout");
 }
@@ -342,9 +345,6 @@ void add_volumes(CLI::App& app, Options& o) {
     g.on_off("--iso-cull", o.iso_cull, "skip nodes whose density range excludes the isovalue");
     g.number("--steps", o.steps, 1, 1 << 16, "N", "samples along the longest axis (reference marcher, multi)");
     g.flag("--shading", o.shading, "Lambert shading from the gradient (always with --mode iso)");
-    g.choice("--camera", o.camera, {"pinhole", "ortho"},
-             "primary rays framing the volume from --view (ortho: a view rectangle as high as the volume's "
-             "bounding sphere, rays along the view direction; in-core volumes only)");
     g.number("--repeat", o.repeat, 1, 1000, "N",
              "render N frames and report the fastest and the median (warm caches, pipelines compiled; "
              "JSON ms_min, ms_median, frame_ms)");
@@ -466,8 +466,6 @@ void check_volume(Options& o, const CLI::App& app) {
                                     "--backend cpu)");
     if (o.ikd_index() && o.grid_format == "sparse")
         throw std::invalid_argument("--grid sparse: the implicit kd-tree and the DDA read dense grids (--grid native or float32)");
-    if (o.camera == "ortho" && !o.volume_input())
-        throw std::invalid_argument("--camera ortho renders volumes (not particles)");
     if (o.isos.size() > 1 && !o.ikd_index())
         throw std::invalid_argument("several --iso values need --index implicit-kd or dda");
     if (o.octree_index() && o.volume_input() && o.mode.empty()) o.mode = "dvr";

@@ -27,6 +27,7 @@
 #endif
 
 #include "options.hpp"
+#include "particle_view.hpp"
 #include "stats.hpp"
 
 namespace sylva_render {
@@ -36,7 +37,7 @@ inline sylva::Frame render_particle_octree(const Options& o, std::span<const std
                                            std::span<const std::uint32_t> records, const sylva::CameraFrame& cam,
                                            sylva::ThreadPool& pool, std::string& device) {
     using namespace sylva;
-    ParticleRenderConfig rc{o.alpha_stop};
+    ParticleRenderConfig rc = particle_config(o);
     if (o.backend == "cpu") {
         device = "host, " + std::to_string(pool.concurrency()) + " threads";
         return render_particles_octree_cpu(words, records, cam, o.width, o.height, pool, rc);
@@ -64,10 +65,7 @@ inline int run_particle_octree(const Options& o, std::span<const sylva::Sphere> 
     std::vector<std::uint32_t> records = pack_particles(spheres, std::span<const std::uint32_t>(identity));
     s.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 
-    Aabb box;
-    for (const Sphere& p : spheres) box.extend(bounds_of(p));
-    vec3 from = o.view ? vec3((*o.view)[0], (*o.view)[1], (*o.view)[2]) : vec3(0.4f, 0.7f, 1.0f);
-    CameraFrame cam = Camera::framing(box, from).frame(o.width, o.height);
+    CameraFrame cam = particle_camera(o, spheres);
     Frame f = render_particle_octree(o, words, records, cam, pool, s.device);
 
     s.index = "octree";

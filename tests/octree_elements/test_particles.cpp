@@ -11,6 +11,10 @@
 #include <sylva/elements/rbf.hpp>
 #include <sylva/io/particles.hpp>
 #include <sylva/render/metrics.hpp>
+#include <sylva/kdtree/elements.hpp>
+#include <sylva/kdtree/elements_encode.hpp>
+#include <sylva/render/elements.hpp>
+#include <sylva/render/kd_particles.hpp>
 #include <sylva/render/octree_particles.hpp>
 
 #include "common.hpp"
@@ -157,4 +161,59 @@ TEST_CASE("octree particles: too few records or a corrupted octree", "[particles
     bad[9] ^= 1u;  // total words: the header is refused
     Frame f = render_particles_octree_cpu(bad, records, cam, 16, 16, pool);
     CHECK(std::all_of(f.steps.begin(), f.steps.end(), [](std::uint32_t st) { return st == 0xFFFFFFFFu; }));
+}
+
+TEST_CASE("particle renderers take the caller's rays: orthographic, a ray buffer and a callable", "[particles][rays]") {
+    // Every particle renderer (BIH, kd-tree, element octree, the generic element compositor)
+    // through an orthographic camera: the exact-order ones equal brute force over the same rays
+    // bit for bit, and a ray buffer or a callable holding those rays gives each renderer's image
+    // and steps bit for bit.
+    ThreadPool pool(2);
+    auto ps = testing::random_spheres(3000, 81);
+    std::span<const Sphere> s(ps);
+    Aabb box = scene_of(ps);
+    const std::uint32_t w = 64, h = 48;
+    CameraFrame cam = Camera::framing(box, {0.3f, 0.6f, 1.0f}).ortho_frame(w, h, 0.5f * glm::length(box.extent()));
+    auto rec = pack_particles(s, std::span<const std::uint32_t>(identity(ps.size())));
+    auto ow = octree::encode_elements(octree::build_elements(s, {}, pool));
+    auto kw = kdtree::encode_elements(kdtree::build_elements(s, {}, pool));
+    bih::Tree bt = bih::build(s, {}, pool);
+    auto bw = bih::encode(bt, s, bih::RangePayload{});
+    auto brec = pack_particles(s, std::span<const std::uint32_t>(bt.order));
+    ParticleRenderConfig ortho;
+    ortho.alpha_stop = 2.0f;  // no early termination: brute force composites every particle
+    ortho.rays.source = RaySource::Ortho;
+    ParticleRenderConfig buffer = ortho, callable = ortho;
+    buffer.rays = PixelRays::from_buffer(ray_buffer(cam, ortho.rays, w, h));
+    callable.rays = PixelRays::from_function([&](std::uint32_t x, std::uint32_t y) { return pixel_ray(cam, ortho.rays, x, y, w, h); });
+    Frame exact{w, h, std::vector<vec4>(std::size_t{w} * h), std::vector<std::uint32_t>(std::size_t{w} * h), 0.0};
+    for (std::uint32_t y = 0; y < h; ++y)
+        for (std::uint32_t x = 0; x < w; ++x) exact.rgba[y * w + x] = brute_force(rec, pixel_ray(cam, ortho.rays, x, y, w, h), 1e30f);
+    auto renders = [&](const ParticleRenderConfig& rc) {
+        return std::vector<Frame>{render_particles_octree_cpu(ow, rec, cam, w, h, pool, rc),
+                                  render_particles_kd_cpu(kw, rec, cam, w, h, pool, rc),
+                                  render_particles_cpu(bw, brec, cam, w, h, pool, rc),
+                                  render_elements_cpu<Sphere, BihIndex>(bw, brec, cam, w, h, pool, rc)};
+    };
+    std::vector<Frame> o = renders(ortho);
+    CHECK(o[0].rgba == exact.rgba);  // the octree and the kd-tree composite in the exact (t_c, index) order
+    CHECK(o[1].rgba == exact.rgba);
+    CHECK(compare_frames(o[2], exact).psnr >= 50.0);  // the BIH: leaf order
+    std::size_t lit = 0;
+    for (const vec4& c : exact.rgba) lit += c.a > 0.05f;
+    CHECK(lit > exact.rgba.size() / 10);
+    for (const ParticleRenderConfig* rc : {&buffer, &callable}) {
+        std::vector<Frame> f = renders(*rc);
+        for (std::size_t i = 0; i < f.size(); ++i) {
+            INFO("renderer " << i << (rc == &buffer ? ", ray buffer" : ", callable"));
+            CHECK(f[i].rgba == o[i].rgba);
+            CHECK(f[i].steps == o[i].steps);
+        }
+    }
+    // The pinhole from the same eye sees another image.
+    CHECK(render_particles_octree_cpu(ow, rec, cam, w, h, pool).rgba != o[0].rgba);
+    ParticleRenderConfig short_buffer = buffer;
+    short_buffer.rays.buffer.pop_back();
+    CHECK_THROWS_WITH(render_particles_cpu(bw, brec, cam, w, h, pool, short_buffer), Catch::Contains("the ray buffer holds"));
+    CHECK_THROWS_WITH(render_particles_kd_cpu(kw, rec, cam, w, h, pool, short_buffer), Catch::Contains("the ray buffer holds"));
 }

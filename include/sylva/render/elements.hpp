@@ -150,6 +150,7 @@ Frame render_elements_cpu(std::span<const std::uint32_t> words, std::span<const 
                           const CameraFrame& cam, std::uint32_t width, std::uint32_t height, X& exec,
                           const ParticleRenderConfig& cfg = {}) {
     std::uint32_t elem_count = check_element_inputs<E, I>(words, records, "render_elements_cpu");
+    check_rays(cfg.rays, width, height);
     auto start = std::chrono::steady_clock::now();
     Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
@@ -157,7 +158,7 @@ Frame render_elements_cpu(std::span<const std::uint32_t> words, std::span<const 
     exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y) {
             for (std::uint32_t x = 0; x < width; ++x) {
-                Ray r = cam.ray(x, static_cast<std::uint32_t>(y), width, height);
+                Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);
                 std::uint32_t steps, status;
                 std::size_t i = y * width + x;
                 f.rgba[i] = shared::sylva_elements_composite<E, I>(

@@ -33,6 +33,7 @@ Frame render_particles_octree_cpu(std::span<const std::uint32_t> words, std::spa
     if (words.size() > 7 && words[7] > records.size() / SYLVA_PARTICLE_WORDS)
         throw Error("render_particles_octree_cpu: the octree names " + std::to_string(words[7]) + " elements, the records hold " +
                     std::to_string(records.size() / SYLVA_PARTICLE_WORDS));
+    check_rays(cfg.rays, width, height);
     auto start = std::chrono::steady_clock::now();
     Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
@@ -41,7 +42,7 @@ Frame render_particles_octree_cpu(std::span<const std::uint32_t> words, std::spa
     exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y) {
             for (std::uint32_t x = 0; x < width; ++x) {
-                Ray r = cam.ray(x, static_cast<std::uint32_t>(y), width, height);
+                Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);
                 std::uint32_t steps, status;
                 std::size_t i = y * width + x;
                 f.rgba[i] = shared::sylva_octe_render_particles(w, word_count, e, n, r.origin, r.direction, 0.0f,

@@ -12,6 +12,7 @@
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
 #include "sylva/render/camera.hpp"
+#include "sylva/render/rays.hpp"
 #include "sylva/shared/particles.h"
 
 namespace sylva {
@@ -29,6 +30,9 @@ struct Frame {
 struct ParticleRenderConfig {
     /// Early ray termination: stop once the accumulated opacity reaches this (Kinkelin 5.3).
     float alpha_stop = 0.99f;
+    /// Primary rays: the camera as a pinhole (default) or orthographic, or the caller's rays
+    /// (sylva/render/rays.hpp; every particle and element renderer, host and Vulkan).
+    PixelRays rays{};
 };
 
 /// Throws sylva::Error unless `kind` (an encoded BIH's payload kind, header bits 8-15) is one the
@@ -58,6 +62,7 @@ Frame render_particles_cpu(std::span<const std::uint32_t> words, std::span<const
                            const ParticleRenderConfig& cfg = {}) {
     if (words.size() >= SYLVA_BIH_HEADER_WORDS && words[0] == SYLVA_BIH_MAGIC)
         check_particle_payload((words[2] >> 8) & 255u, records.size(), "render_particles_cpu");
+    check_rays(cfg.rays, width, height);
     auto start = std::chrono::steady_clock::now();
     Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
@@ -65,7 +70,7 @@ Frame render_particles_cpu(std::span<const std::uint32_t> words, std::span<const
     exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y) {
             for (std::uint32_t x = 0; x < width; ++x) {
-                Ray r = cam.ray(x, static_cast<std::uint32_t>(y), width, height);
+                Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);
                 std::uint32_t steps, status;
                 std::size_t i = y * width + x;
                 f.rgba[i] = shared::sylva_render_particles(w, word_count, e, r.origin, r.direction, 0.0f,

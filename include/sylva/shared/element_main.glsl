@@ -7,12 +7,13 @@
 // bits 8-31),
 // index steps, 1 if more hits followed the last one written, then per hit (record index,
 // t0 bits, t1 bits), in order (sylva/shared/element_kernels.h). max_hits 1 is the first hit.
-// Mode 1 (image): one invocation per pixel of a width x height camera image; writes 6 words per
-// pixel: premultiplied R, G, B, opacity (float bits), steps, status.
+// Mode 1 (image): one invocation per pixel of a width x height image, its ray from the camera
+// (pinhole or orthographic) or binding 5 (ray_source, sylva/shared/ray_buffer.h); writes 6 words
+// per pixel: premultiplied R, G, B, opacity (float bits), steps, status.
 #ifndef SYLVA_SHARED_ELEMENT_MAIN_GLSL
 #define SYLVA_SHARED_ELEMENT_MAIN_GLSL
 
-#include "sylva/shared/camera.h"
+#include "sylva/shared/ray_buffer.h"
 #include "sylva/shared/element_bih.h"
 #include "sylva/shared/element_kernels.h"
 
@@ -53,11 +54,11 @@ void sylva_element_image_main(uvec2 px) {
     vec3 w = vec3(sylva_pc.cam[3], sylva_pc.cam[4], sylva_pc.cam[5]);
     vec3 u = vec3(sylva_pc.cam[6], sylva_pc.cam[7], sylva_pc.cam[8]);
     vec3 v = vec3(sylva_pc.cam[9], sylva_pc.cam[10], sylva_pc.cam[11]);
-    vec3 d = sylva_camera_dir(w, u, v, px.x, px.y, sylva_pc.width, sylva_pc.height);
+    SylvaRay ray = sylva_pixel_ray_from(0u, sylva_pc.ray_source, eye, w, u, v, px.x, px.y, sylva_pc.width, sylva_pc.height);
     uint steps;
     uint status;
-    vec4 c = sylva_elements_composite(0u, sylva_pc.word_count, 0u, sylva_pc.elem_count, eye, d, 0.0f, sylva_inf(),
-                                      sylva_pc.alpha_stop, steps, status);
+    vec4 c = sylva_elements_composite(0u, sylva_pc.word_count, 0u, sylva_pc.elem_count, ray.origin, ray.dir, 0.0f,
+                                      sylva_inf(), sylva_pc.alpha_stop, steps, status);
     uint at = (px.y * sylva_pc.width + px.x) * 6u;
     sylva_out_data[at] = floatBitsToUint(c.x);
     sylva_out_data[at + 1u] = floatBitsToUint(c.y);

@@ -9,10 +9,12 @@
 //   #include "sylva/shared/element_main.glsl"        // the kernel's main()
 //
 // Bindings (set 0): 0-3 the encoded BIH split over four buffers (sylva::vk::split_words);
-// 4 the element records (`elems`, read by the element's sylva_elem_load); 5 rays (8 floats
-// each: origin, direction, t_min, t_max; a dummy in image mode); 6 output (see element_main.glsl).
+// 4 the element records (`elems`, read by the element's sylva_elem_load); 5 rays (hits mode: 8
+// floats each: origin, direction, t_min, t_max; image mode: the caller's rays, 6 floats a pixel,
+// sylva/shared/ray_buffer.h, when ray_source is SYLVA_RAYS_BUFFER, else a dummy); 6 output (see
+// element_main.glsl).
 // Specialization constants: 0 split shift, 1 BIH stack entries (>= the tree's depth).
-// Push constants: 80 bytes, sylva::vk::ElementPush (sylva/vulkan/elements.hpp).
+// Push constants: 84 bytes, sylva::vk::ElementPush (sylva/vulkan/elements.hpp).
 #ifndef SYLVA_SHARED_ELEMENT_PROLOGUE_GLSL
 #define SYLVA_SHARED_ELEMENT_PROLOGUE_GLSL
 
@@ -37,9 +39,12 @@ layout(push_constant) uniform SylvaElementPush {
     uint max_hits;      // hits mode: hits kept per ray
     float alpha_stop;   // image mode: early ray termination
     uint ray_count;     // hits mode: rays in binding 5
+    uint ray_source;    // image mode: SYLVA_RAYS_* (the camera as pinhole or orthographic, or binding 5)
 } sylva_pc;
 
 /// Word i of the element records, 0 past their end (the host's Words does the same).
 uint sylva_load_elems(uint i) { return i < uint(sylva_elems_data.length()) ? sylva_elems_data[i] : 0u; }
+/// Word i of binding 5 (image mode's ray buffer), 0 past its end.
+uint sylva_load_rays(uint i) { return i < uint(sylva_rays_data.length()) ? floatBitsToUint(sylva_rays_data[i]) : 0u; }
 
 #endif  // SYLVA_SHARED_ELEMENT_PROLOGUE_GLSL

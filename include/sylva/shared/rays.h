@@ -17,6 +17,7 @@
 #define SYLVA_SHARED_RAYS_H
 
 #include "sylva/shared/camera.h"
+#include "sylva/shared/ray_buffer.h"
 #include "sylva/shared/dvr_common.h"
 
 SYLVA_BEGIN_NAMESPACE
@@ -24,17 +25,6 @@ SYLVA_BEGIN_NAMESPACE
 #if !defined(__cplusplus) && defined(SYLVA_RAYS_USER)
 SylvaRay sylva_rays_user(uint x, uint y, uint width, uint height);
 #endif
-
-/// Ray of pixel (x, y) from a ray buffer (see the top); words past the buffer read 0.
-SYLVA_FN SylvaRay sylva_rays_load(SYLVA_BUF(rays), uint x, uint y, uint width) {
-    uint at = (y * width + x) * 6u;
-    SylvaRay r;
-    r.origin = vec3(uintBitsToFloat(SYLVA_LOAD(rays, at)), uintBitsToFloat(SYLVA_LOAD(rays, at + 1u)),
-                    uintBitsToFloat(SYLVA_LOAD(rays, at + 2u)));
-    r.dir = vec3(uintBitsToFloat(SYLVA_LOAD(rays, at + 3u)), uintBitsToFloat(SYLVA_LOAD(rays, at + 4u)),
-                 uintBitsToFloat(SYLVA_LOAD(rays, at + 5u)));
-    return r;
-}
 
 /// The ray of pixel (x, y) for the parameter block `params` (decoded as p): the camera of words
 /// 0-11 as pinhole or orthographic, or the caller's rays.

@@ -16,6 +16,7 @@
 #include "sylva/shared/bih_layout.h"
 #include "sylva/spirv/bih_leaves.h"
 #include "sylva/spirv/particles.h"
+#include "sylva/vulkan/rays.hpp"
 #include "sylva/vulkan/runner.hpp"
 #include "sylva/vulkan/split_words.hpp"
 
@@ -87,14 +88,17 @@ public:
     Frame render(DeviceBih& bih, Buffer& records, const CameraFrame& cam, std::uint32_t width, std::uint32_t height,
                  const ParticleRenderConfig& cfg = {}) {
         check_particle_payload(bih.kind(), records.size_bytes() / 4, "vk::ParticleKernel::render");
+        check_rays(cfg.rays, width, height);
         Buffer out_buf(*ctx_, std::size_t{width} * height * 5 * 4);
+        Buffer rays = detail::ray_binding(*ctx_, cam, cfg.rays, width, height);
         struct {
             std::array<float, 12> cam;
             std::uint32_t width, height, word_count;
             float alpha_stop;
-        } push{cam.floats(), width, height, bih.word_count(), cfg.alpha_stop};
-        static_assert(sizeof push == 64);
-        std::array<Buffer*, 6> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), &records, &out_buf};
+            std::uint32_t ray_source;
+        } push{cam.floats(), width, height, bih.word_count(), cfg.alpha_stop, static_cast<std::uint32_t>(cfg.rays.source)};
+        static_assert(sizeof push == 68);
+        std::array<Buffer*, 7> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), &records, &out_buf, &rays};
         Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
         f.ms = ctx_->dispatch(kernel_for(bih), bind, &push, sizeof push, groups_for(width, 8), groups_for(height, 8));
         std::vector<std::uint32_t> px(std::size_t{width} * height * 5);
@@ -112,7 +116,7 @@ private:
         auto key = (std::uint64_t{c[0]} << 32) | c[1];
         auto found = kernels_.find(key);
         if (found == kernels_.end())
-            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv::particles, 6, 64, c)).first;
+            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv::particles, 7, 68, c)).first;
         return *found->second;
     }
 

@@ -28,19 +28,21 @@
 #include "sylva/render/elements.hpp"
 #include "sylva/vulkan/bih.hpp"
 #include "sylva/vulkan/kernel.hpp"
+#include "sylva/vulkan/rays.hpp"
 #include "sylva/vulkan/runner.hpp"
 
 namespace sylva::vk {
 
-/// Push constants of sylva/shared/element_prologue.glsl (80 bytes).
+/// Push constants of sylva/shared/element_prologue.glsl (84 bytes).
 struct ElementPush {
     std::array<float, 12> cam{};
     std::uint32_t width = 0, height = 0, word_count = 0, elem_count = 0;
     std::uint32_t mode = 0, max_hits = 0;
     float alpha_stop = 0.99f;
     std::uint32_t ray_count = 0;
+    std::uint32_t ray_source = 0;  ///< image mode: SYLVA_RAYS_* (ParticleRenderConfig::rays)
 };
-static_assert(sizeof(ElementPush) == 80);
+static_assert(sizeof(ElementPush) == 84);
 
 /// Element records uploaded once. `record_words` is sylva::element_words<E>() of their type.
 class DeviceRecords {
@@ -147,7 +149,9 @@ public:
     Frame render(Index& bih, DeviceRecords& recs, const CameraFrame& cam, std::uint32_t width,
                  std::uint32_t height, const ParticleRenderConfig& cfg = {}) {
         check(bih, "render");
-        Buffer dummy_rays(*ctx_, 32), out_buf(*ctx_, std::max<std::size_t>(std::size_t{width} * height, 1) * 6 * 4);
+        check_rays(cfg.rays, width, height);
+        Buffer rays = detail::ray_binding(*ctx_, cam, cfg.rays, width, height);
+        Buffer out_buf(*ctx_, std::max<std::size_t>(std::size_t{width} * height, 1) * 6 * 4);
         ElementPush push;
         push.cam = cam.floats();
         push.width = width;
@@ -156,7 +160,8 @@ public:
         push.elem_count = recs.count();
         push.mode = 1;
         push.alpha_stop = cfg.alpha_stop;
-        std::array<Buffer*, 7> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), recs.buffer(), &dummy_rays, &out_buf};
+        push.ray_source = static_cast<std::uint32_t>(cfg.rays.source);
+        std::array<Buffer*, 7> bind{bih.part(0), bih.part(1), bih.part(2), bih.part(3), recs.buffer(), &rays, &out_buf};
         Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
         if (f.rgba.empty()) return f;
         f.ms = ctx_->dispatch(kernel_for(bih), bind, &push, sizeof push, groups_for(width, 8), groups_for(height, 8));
@@ -187,7 +192,7 @@ private:
         auto key = (std::uint64_t{c[0]} << 32) | c[1];
         auto found = kernels_.find(key);
         if (found == kernels_.end())
-            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv_, 7, 80, c)).first;
+            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv_, 7, 84, c)).first;
         return *found->second;
     }
 

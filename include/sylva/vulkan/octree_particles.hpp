@@ -24,6 +24,7 @@
 #include "sylva/render/particles.hpp"
 #include "sylva/shared/octree_particles.h"
 #include "sylva/spirv/octree_particles.h"
+#include "sylva/vulkan/rays.hpp"
 #include "sylva/vulkan/runner.hpp"
 #include "sylva/vulkan/split_words.hpp"
 #include "sylva/vulkan/volume.hpp"
@@ -53,13 +54,13 @@ public:
     [[nodiscard]] std::uint32_t record_count() const { return record_count_; }
     /// The kernel for this octree's splits, built on first use and kept.
     Kernel& kernel(Context& ctx) {
-        if (!kernel_) kernel_.emplace(ctx, spirv::octree_particles, 9, 68, constants_);
+        if (!kernel_) kernel_.emplace(ctx, spirv::octree_particles, 10, 72, constants_);
         return *kernel_;
     }
     /// Bindings 0-7 (index parts, record parts) followed by `out`.
-    [[nodiscard]] std::array<Buffer*, 9> bindings(Buffer& out) {
+    [[nodiscard]] std::array<Buffer*, 10> bindings(Buffer& out, Buffer& rays) {
         return {&words_.parts[0], &words_.parts[1], &words_.parts[2], &words_.parts[3], &elems_.parts[0],
-                &elems_.parts[1], &elems_.parts[2], &elems_.parts[3], &out};
+                &elems_.parts[1], &elems_.parts[2], &elems_.parts[3], &out,             &rays};
     }
 
 private:
@@ -93,14 +94,18 @@ private:
 inline Frame render_particles_octree_vulkan(Context& ctx, DeviceElementOctree& oct, const CameraFrame& cam,
                                             std::uint32_t width, std::uint32_t height,
                                             const ParticleRenderConfig& cfg = {}) {
+    check_rays(cfg.rays, width, height);
     Buffer out(ctx, std::max<std::size_t>(std::size_t{width} * height * 5 * 4, 4));
+    Buffer rays = detail::ray_binding(ctx, cam, cfg.rays, width, height);
     struct {
         std::array<float, 12> cam;
         std::uint32_t width, height, word_count, records;
         float alpha_stop;
-    } push{cam.floats(), width, height, oct.word_count(), oct.record_count(), cfg.alpha_stop};
-    static_assert(sizeof push == 68);
-    auto bind = oct.bindings(out);
+        std::uint32_t ray_source;
+    } push{cam.floats(), width,           height, oct.word_count(), oct.record_count(),
+           cfg.alpha_stop, static_cast<std::uint32_t>(cfg.rays.source)};
+    static_assert(sizeof push == 72);
+    auto bind = oct.bindings(out, rays);
     Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     if (width == 0 || height == 0) return f;
     f.ms = ctx.dispatch(oct.kernel(ctx), bind, &push, sizeof push, groups_for(width, 8), groups_for(height, 8));
