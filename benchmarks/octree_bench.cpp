@@ -55,7 +55,7 @@ struct Options {
     std::size_t runs = 3, threads = 0;
     float lod_pixels = 1.0f, iso = 0.3f;
     bool shading = false;
-    std::string border = "zero";
+    std::string border = "zero", brick_format = "float32";
 };
 
 /// The command line, bound to `o`.
@@ -100,6 +100,11 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
         ->type_name("MODE")
         ->capture_default_str()
         ->check(CLI::IsMember({"zero", "clamp"}));
+    app->add_option("--brick-format", o.brick_format,
+                    "how bricks store samples: float32, unorm16 or unorm8 (the uint8 volumes' voxels exactly)")
+        ->type_name("FORMAT")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"float32", "unorm16", "unorm8"}));
     app->add_option("--json", o.json, "write every figure as a JSON array of {case, impl, metric, value, unit}")
         ->type_name("FILE");
     return app;
@@ -185,6 +190,9 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     VolumeRenderParams p = params(o, c, g);
     octree::Config cfg;
     cfg.brick_size = o.brick;
+    cfg.format = o.brick_format == "unorm8"    ? octree::BrickFormat::Unorm8
+                 : o.brick_format == "unorm16" ? octree::BrickFormat::Unorm16
+                                               : octree::BrickFormat::Float32;
     octree::Tree t = octree::build(g, pool, cfg);
     std::vector<std::uint32_t> full = octree::encode(t);
     std::vector<std::uint32_t> lod = full, lod_iso = full;

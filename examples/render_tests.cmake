@@ -335,6 +335,27 @@ sylva_render_test(octree_ct12 FIXTURE sylva_range_volumes
        -o ${_rv}/octree_ct12.png --stats-json ${_rv}/octree_ct12.json
   FILES ${_rv}/octree_ct12.png JSON ${_rv}/octree_ct12.json EXTRA_KEYS ${_oct_keys}
   JSON_MIN visible_pixels=${_rv_min_visible} JSON_EQUAL octree_nodes=9 bricks=9)
+# --grid native (the default) keeps the uint8 aneurism's voxels in unorm8 bricks: a quarter of
+# float32's 585 bricks x 36^3 words (brick_bytes = 585 x 11664 x 4); --grid float32 keeps float
+# bricks. The images are the same (test_octree: unorm bricks == the native marcher bit for bit);
+# out of core from the unorm8 tree too.
+foreach(grid native float32)
+  if(grid STREQUAL "native")
+    set(_bf brick_format=unorm8 brick_bytes=27293760)
+  else()
+    set(_bf brick_format=float32 brick_bytes=109175040)
+  endif()
+  sylva_render_test(octree_bricks_${grid} NEED ${_data}/aneurism_256x256x256_uint8.raw
+    ARGS --volume ${_data}/aneurism_256x256x256_uint8.raw --index octree --grid ${grid} --size 64x48 --quiet
+         -o ${_out}/octree_bricks_${grid}.png --stats-json ${_out}/octree_bricks_${grid}.json
+    FILES ${_out}/octree_bricks_${grid}.png JSON ${_out}/octree_bricks_${grid}.json EXTRA_KEYS brick_format ${_oct_keys}
+    JSON_EQUAL ${_bf} bricks=585 errors=0 JSON_MIN visible_pixels=100)
+endforeach()
+sylva_render_test(octree_bricks_unorm8_ooc NEED ${_data}/aneurism_256x256x256_uint8.raw
+  ARGS --volume ${_data}/aneurism_256x256x256_uint8.raw --index octree --frames 3 --size 64x48 --quiet
+       -o ${_out}/octree_bricks_ooc.png --stats-json ${_out}/octree_bricks_ooc.json
+  FILES ${_out}/octree_bricks_ooc.png JSON ${_out}/octree_bricks_ooc.json EXTRA_KEYS brick_format
+  JSON_EQUAL brick_format=unorm8 errors=0 JSON_MIN visible_pixels=100)
 sylva_render_test(octree_brick_8 RC 2 ERR "--brick: '8' is not one of 16\\|32"
   ARGS --index octree --brick 8 -o ${_out}/x.png)
 sylva_render_test(octree_lod_without_octree RC 2 ERR "--lod-pixels needs --index octree"

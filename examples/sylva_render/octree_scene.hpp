@@ -33,12 +33,25 @@
 
 namespace sylva_render {
 
-inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::VolumeRenderParams& vp,
-                             sylva::ThreadPool& pool, Stats& s) {
+/// The bricks' format for --grid: with native (the default) a uint8 / uint16 volume normalised
+/// over its type's range keeps its voxels exactly in unorm8 / unorm16 bricks (a quarter / half of
+/// float32's memory, the same image); anything else, or --grid float32, takes float32 bricks.
+inline sylva::octree::BrickFormat octree_brick_format(const Options& o, const sylva::volume::Volume* native) {
+    using namespace sylva;
+    if (o.grid_format == "float32" || native == nullptr || native->range_lo != 0.0f) return octree::BrickFormat::Float32;
+    if (native->type == volume::ScalarType::U8 && native->range_hi == 255.0f) return octree::BrickFormat::Unorm8;
+    if (native->type == volume::ScalarType::U16 && native->range_hi == 65535.0f) return octree::BrickFormat::Unorm16;
+    return octree::BrickFormat::Float32;
+}
+
+inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid& g, const sylva::volume::Volume* native,
+                             const sylva::VolumeRenderParams& vp, sylva::ThreadPool& pool, Stats& s) {
     using namespace sylva;
     const bool iso = o.mode == "iso";
     octree::Config cfg;
     cfg.brick_size = o.brick;
+    cfg.format = octree_brick_format(o, native);
+    s.octree.brick_format = brick_format_name(cfg.format);
     octree::Tree tree = octree::build(g, pool, cfg);
     if (o.out_of_core()) {  // the in-core tree as the brick source of the out-of-core path
         s.build_ms = tree.build_ms;

@@ -39,6 +39,11 @@
 
 namespace sylva_render {
 
+/// Name of a brick format (an index's word 5 bits 24-31) in the statistics.
+inline const char* brick_format_name(sylva::octree::BrickFormat f) {
+    return f == sylva::octree::BrickFormat::Unorm8 ? "unorm8" : (f == sylva::octree::BrickFormat::Unorm16 ? "unorm16" : "float32");
+}
+
 /// Peak resident set size of this process in bytes (getrusage: ru_maxrss is in KiB on Linux).
 inline std::size_t peak_rss_bytes() {
     struct rusage u {};
@@ -204,6 +209,7 @@ int run_octree_ooc(const Options& o, const S& src, sylva::ThreadPool& pool, Stat
     r.bricks = h.brick_count;
     r.octree_nodes = h.node_count;
     r.brick_bytes = std::size_t{h.brick_count} * h.brick_words * 4;
+    r.brick_format = brick_format_name(static_cast<octree::BrickFormat>(h.format));
     r.levels = h.levels;
     r.lod_pixels = cfg.lod_pixels;
     Stats::VolumeRows& v = s.volume;

@@ -95,6 +95,7 @@ struct Stats {
         std::uint32_t brick_size = 0, levels = 0, cut_leaves = 0, cut_deepest = 0;
         std::size_t bricks = 0, octree_nodes = 0, index_bytes = 0, brick_bytes = 0, cut_nodes = 0;
         float lod_pixels = 0.0f;  ///< 0: the full-resolution cut
+        std::string brick_format = "float32";  ///< float32|unorm16|unorm8 (--grid native keeps uint8 / uint16 voxels)
     } octree;
 
     /// Out-of-core octree runs (--frames, a budget, or a brick store; ooc_scene.hpp).
@@ -178,8 +179,8 @@ struct Stats {
         if (iso.present) print_iso(os);
         if (octree.present)
             os << "octree           " << octree.octree_nodes << " nodes, " << octree.levels << " levels, "
-               << octree.bricks << " bricks of " << octree.brick_size << "^3; index " << octree.index_bytes
-               << " B, bricks " << octree.brick_bytes << " B\n"
+               << octree.bricks << " bricks of " << octree.brick_size << "^3 (" << octree.brick_format << "); index "
+               << octree.index_bytes << " B, bricks " << octree.brick_bytes << " B\n"
                << "cut              " << octree.cut_nodes << " nodes, " << octree.cut_leaves << " leaves, deepest level "
                << octree.cut_deepest
                << (octree.lod_pixels > 0.0f ? " (--lod-pixels " + std::to_string(octree.lod_pixels) + ")"
@@ -326,6 +327,7 @@ struct Stats {
             j["octree_levels"] = octree.levels;
             j["index_bytes"] = octree.index_bytes;
             j["brick_bytes"] = octree.brick_bytes;
+            j["brick_format"] = octree.brick_format;
             j["cut_nodes"] = octree.cut_nodes;
             j["cut_leaves"] = octree.cut_leaves;
             j["cut_deepest_level"] = octree.cut_deepest;

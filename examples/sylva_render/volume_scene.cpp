@@ -266,7 +266,7 @@ int run_volume(const Options& o) {
     VolumeRenderParams p = render_params(o, g);
     if (o.kd_index()) return run_kd_volume(o, g, native, p, pool, s);
     if (o.ikd_index()) return run_ikd_volume(o, g, native, p, pool, s);
-    if (o.octree_index()) return run_octree_volume(o, g, p, pool, s);
+    if (o.octree_index()) return run_octree_volume(o, g, native, p, pool, s);
     BuiltLod lod;
     if (o.index == "bih") lod = build_lod(o, g, pool, s);
     else s.bytes = g.values.size() * 4;  // the float grid the marcher reads; elements stay 0: no index

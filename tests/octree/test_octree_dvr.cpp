@@ -7,10 +7,12 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <sylva/octree/build.hpp>
 #include <sylva/octree/encode.hpp>
+#include <sylva/octree/validate.hpp>
 #include <sylva/render/octree_volume.hpp>
 #include <sylva/render/volume.hpp>
 #include <sylva/volume/procedural.hpp>
@@ -179,4 +181,90 @@ TEST_CASE("octree DVR: a corrupted index is refused or ends its rays with an err
     for (std::size_t n = 0; n < t.nodes.size(); ++n) bad[SYLVA_OCT_HEADER_WORDS + 16 * n + 4] = std::uint32_t(n);
     Frame f = render_octree_dvr_cpu(OctreeView{bad, t.bricks}, p, serial);
     CHECK(std::count(f.steps.begin(), f.steps.end(), 0xFFFFFFFFu) > 0);
+}
+
+namespace {
+
+/// A uint8 or uint16 volume of the blobs, over its type's range (v / 255 or v / 65535).
+volume::Volume integer_blobs(volume::Dims d, std::uint32_t seed, volume::ScalarType type) {
+    volume::DensityGrid g = blobs(d, seed);
+    volume::Volume v;
+    v.type = type;
+    v.dims = d;
+    const bool u8 = type == volume::ScalarType::U8;
+    v.range_lo = 0.0f;
+    v.range_hi = u8 ? 255.0f : 65535.0f;
+    v.bytes.resize(g.values.size() * (u8 ? 1 : 2));
+    for (std::size_t i = 0; i < g.values.size(); ++i) {
+        auto q = static_cast<std::uint16_t>(std::lround(g.values[i] * v.range_hi));
+        if (u8) v.bytes[i] = std::byte(q);
+        else std::memcpy(&v.bytes[2 * i], &q, 2);
+    }
+    return v;
+}
+
+}  // namespace
+
+TEST_CASE("octree DVR and iso: unorm8 / unorm16 bricks of a uint8 / uint16 volume render the native marcher's image bit for bit",
+          "[octree][dvr][iso][formats]") {
+    ThreadPool pool(2);
+    for (volume::ScalarType type : {volume::ScalarType::U8, volume::ScalarType::U16}) {
+        volume::Volume v = integer_blobs({37, 30, 26}, 27, type);
+        volume::DensityGrid g = volume::normalize(v);  // v / 255 or v / 65535, the native sampler's densities
+        octree::BrickFormat format = type == volume::ScalarType::U8 ? octree::BrickFormat::Unorm8 : octree::BrickFormat::Unorm16;
+        octree::Tree t = octree::build(g, pool, {8, 2, format});
+        octree::Tree f32 = octree::build(g, pool, {8, 2});
+        std::vector<std::uint32_t> words = octree::encode(t);
+        REQUIRE_NOTHROW(octree::validate(words, t.bricks));
+        // A quarter (half) of the float32 bricks' words, rounded up per brick.
+        std::uint32_t side = 8 + 4, per_word = type == volume::ScalarType::U8 ? 4 : 2;
+        CHECK(t.brick_words() == (side * side * side + per_word - 1) / per_word);
+        CHECK(t.bricks.size() * per_word >= f32.bricks.size());
+        CHECK(t.bricks.size() * per_word < f32.bricks.size() + per_word * t.nodes.size());
+        for (std::size_t n = 0; n < t.nodes.size(); ++n) {  // rounding loses nothing: the float32 tree's samples
+            REQUIRE(t.nodes[n].min == f32.nodes[n].min);
+            REQUIRE(t.nodes[n].max == f32.nodes[n].max);
+        }
+        std::size_t leaves = 0;  // full-resolution bricks hold the voxels exactly (coarse ones are rounded averages)
+        for (std::size_t n = 0; n < t.nodes.size(); ++n) {
+            if (t.nodes[n].level + 1 != t.levels) continue;
+            ++leaves;
+            for (std::uint32_t z = 0; z < side; z += 3)
+                for (std::uint32_t x = 0; x < side; ++x)
+                    REQUIRE(t.sample(t.nodes[n].brick, x, 5, z) == f32.sample(f32.nodes[n].brick, x, 5, z));
+        }
+        CHECK(leaves > 10);
+        for (GridBorder border : {GridBorder::clamp(), GridBorder{}}) {
+            GridWords native = GridWords::native(v, border);
+            REQUIRE(native.sampling.format == (type == volume::ScalarType::U8 ? GridFormat::U8 : GridFormat::U16));
+            OctreeView view{.words = words, .bricks = t.bricks, .border = border};
+            for (bool shading : {false, true}) {
+                VolumeRenderParams p = params(g, 48, {0.4f, 0.3f, 1.0f}, shading, 0.3f);
+                Frame ref = render_dvr_cpu(native, p, pool);
+                Frame oct = render_octree_dvr_cpu(view, p, pool);
+                INFO("type " << volume::scalar_name(type) << " border " << int(border.mode) << " shading " << shading);
+                CHECK(differing(ref, oct) == 0);
+                CHECK(opacity_sum(ref) > 10.0);
+            }
+            VolumeRenderParams p = params(g, 48, {0.4f, 0.3f, 1.0f}, true, 0.3f);
+            p.iso = 0.45f;
+            Frame iso = render_octree_iso_cpu(view, p, pool);
+            Frame iso_f32 = render_octree_iso_cpu(OctreeView{.words = octree::encode(f32), .bricks = f32.bricks, .border = border}, p, pool);
+            CHECK(differing(iso, iso_f32) == 0);
+        }
+    }
+    // Densities that are not k / 255 are rounded to the nearest step: within half a step of the
+    // float32 tree's samples, and the ranges those of the rounded samples.
+    volume::DensityGrid g = blobs({20, 20, 20}, 28);
+    octree::Tree t = octree::build(g, pool, {8, 1, octree::BrickFormat::Unorm8});
+    octree::Tree f32 = octree::build(g, pool, {8, 1});
+    float worst = 0.0f;
+    for (std::uint32_t b = 0; b < f32.brick_count(); ++b)
+        for (std::uint32_t x = 0; x < 10; ++x) worst = std::max(worst, std::abs(t.sample(b, x, 4, 6) - f32.sample(b, x, 4, 6)));
+    CHECK(worst > 0.0f);
+    CHECK(worst <= 0.5f / 255.0f + 1e-7f);
+    CHECK(t.nodes[0].min == std::round(f32.nodes[0].min * 255.0f) / 255.0f);
+    CHECK(t.nodes[0].max == std::round(f32.nodes[0].max * 255.0f) / 255.0f);
+    octree::Config bad{8, 2, static_cast<octree::BrickFormat>(1)};
+    CHECK_THROWS_WITH(octree::build(g, pool, bad), Catch::Contains("unknown brick format 1"));
 }

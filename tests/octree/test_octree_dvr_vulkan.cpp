@@ -88,6 +88,42 @@ TEST_CASE("vulkan: octree DVR on the device equals the host renderer", "[parity]
     }
 }
 
+TEST_CASE("vulkan: unorm8 and unorm16 bricks on the device equal the host", "[parity][dvr][iso][formats]") {
+    vk::Context ctx = vk::Context::create();
+    ThreadPool pool(2);
+    volume::DensityGrid g = blobs({45, 38, 52}, 44, vec3(1.0f, 1.0f, 1.4f));
+    VolumeRenderParams p;
+    p.width = 48;
+    p.height = 40;
+    p.camera = Camera::framing(g.world_box(), {0.5f, 0.4f, 1.0f}, 35.0f).frame(p.width, p.height);
+    p.tf.resize(256);
+    for (std::uint32_t i = 0; i < 256; ++i)
+        p.tf[i] = (60 + i * 3 / 4) | ((230 - i / 2) << 8) | (100u << 16) | ((i < 90 ? 0u : (i - 90) / 2) << 24);
+    p.iso = 0.5f;
+    std::size_t lit = 0;
+    for (octree::BrickFormat format : {octree::BrickFormat::Unorm8, octree::BrickFormat::Unorm16}) {
+        octree::Tree t = octree::build(g, pool, {8, 2, format});
+        std::vector<std::uint32_t> words = octree::encode(t);
+        // Bricks over several parts: 2^15 words a part for unorm8's 110 k words, 2^16 for unorm16's 220 k.
+        const std::uint32_t split = format == octree::BrickFormat::Unorm8 ? 15u : 16u;
+        for (std::uint32_t shift : {0u, split}) {
+            OctreeView view{words, t.bricks};
+            vk::DeviceOctree dev(ctx, view, shift);
+            for (bool iso : {false, true}) {
+                p.shading = iso;
+                Frame host = iso ? render_octree_iso_cpu(view, p, pool) : render_octree_dvr_cpu(view, p, pool);
+                Frame device = iso ? vk::render_octree_iso_vulkan(ctx, dev, p) : vk::render_octree_dvr_vulkan(ctx, dev, p);
+                INFO("format " << static_cast<int>(format) << " shift " << shift << " iso " << iso);
+                CHECK(host.steps == device.steps);
+                CHECK(max_diff(host, device) < 1e-5);
+                for (const vec4& c : device.rgba) lit += c.w > 0.05f ? 1 : 0;
+            }
+        }
+        REQUIRE(t.bricks.size() > 2 * (std::size_t{1} << split));
+    }
+    CHECK(lit > 8 * std::size_t{p.width} * p.height / 20);
+}
+
 TEST_CASE("vulkan: a corrupted octree is refused on upload or marks its rays", "[parity][dvr][errors]") {
     vk::Context ctx = vk::Context::create();
     volume::DensityGrid g = blobs({20, 20, 20}, 42);

@@ -177,3 +177,10 @@ TEST_CASE("resume refuses other settings and finished stores", "[store]") {
     CHECK_THROWS_WITH(store::build_store(c, "ml", dir / "user", cfg, pool), Catch::Contains("not a brick store"));
     CHECK(std::filesystem::exists(dir / "user" / "notes.txt"));
 }
+
+TEST_CASE("the store refuses an octree of unorm bricks (it holds float32 bricks) and writes nothing", "[store][bad-input]") {
+    octree::Tree t = octree::build(volume::marschner_lobb({40, 30, 20}), {8, 2, octree::BrickFormat::Unorm8});
+    TempDir dir;
+    CHECK_THROWS_WITH(store::write_tree(t, dir / "s"), Catch::Contains("float32 bricks"));
+    CHECK_FALSE(std::filesystem::exists(dir / "s"));
+}

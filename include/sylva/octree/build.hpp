@@ -40,6 +40,7 @@
 #include "sylva/core/concepts.hpp"
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
+#include "sylva/shared/octree_brick.h"
 #include "sylva/volume/grid.hpp"
 
 namespace sylva::octree {
@@ -68,6 +69,14 @@ struct Node {
     [[nodiscard]] bool leaf() const { return child_mask == 0u; }
 };
 
+/// How a brick stores its samples (sylva/shared/octree_layout.h): float32 bits of the
+/// normalised density, or the density rounded to 16 or 8 bits (q / 65535, q / 255).
+enum class BrickFormat : std::uint32_t {
+    Float32 = SYLVA_OCT_FORMAT_FLOAT32,
+    Unorm16 = SYLVA_OCT_FORMAT_UNORM16,  ///< the paper's 16-bit texels; half the memory
+    Unorm8 = SYLVA_OCT_FORMAT_UNORM8,    ///< a quarter of the memory
+};
+
 /// The built octree. Nodes are stored level by level (node 0 is the root) and the existing
 /// children of a node are consecutive, in octant order, from first_child.
 struct Tree {
@@ -76,18 +85,21 @@ struct Tree {
     std::uint32_t brick_size = 0;  ///< B
     std::uint32_t border = 0;      ///< replicated samples on each side of a brick
     std::uint32_t levels = 0;      ///< L
+    BrickFormat format = BrickFormat::Float32;
     std::vector<Node> nodes;
-    /// The bricks, float32 bits, brick_words() words each; sample (x, y, z) of brick i (x, y, z
-    /// in [0, B + 2 * border), x fastest) is word i * brick_words() + x + S * (y + S * z) with
-    /// S = B + 2 * border, the voxel (or coarse voxel) coord * B - border + (x, y, z) of the
-    /// node's level, clamped to the level's extent.
+    /// The bricks, brick_words() words each in `format`; sample (x, y, z) of brick i (x, y, z in
+    /// [0, B + 2 * border), x fastest) is sample x + S * (y + S * z) of the brick's words
+    /// (sylva/shared/octree_layout.h), S = B + 2 * border, the voxel (or coarse voxel)
+    /// coord * B - border + (x, y, z) of the node's level, clamped to the level's extent.
     std::vector<std::uint32_t> bricks;
     double build_ms = 0.0;
 
     /// Samples per brick side, S = B + 2 * border.
     [[nodiscard]] std::uint32_t brick_side() const { return brick_size + 2u * border; }
-    /// Words per brick, S^3.
-    [[nodiscard]] std::uint32_t brick_words() const { return brick_side() * brick_side() * brick_side(); }
+    /// Words per brick: S^3 samples in `format`.
+    [[nodiscard]] std::uint32_t brick_words() const {
+        return shared::sylva_oct_brick_word_count(brick_side(), static_cast<std::uint32_t>(format));
+    }
     [[nodiscard]] std::size_t brick_count() const { return brick_words() ? bricks.size() / brick_words() : 0u; }
     /// Width in voxels of a node of level l: B * 2^(L - 1 - l).
     [[nodiscard]] std::uint32_t width(std::uint32_t level) const { return brick_size << (levels - 1u - level); }
@@ -101,10 +113,11 @@ struct Tree {
     [[nodiscard]] glm::u32vec3 box_hi(const Node& n) const {
         return glm::min((n.coord + 1u) * width(n.level), dims);
     }
-    /// Sample (x, y, z) of brick b as a float.
+    /// Sample (x, y, z) of brick b as a normalised density.
     [[nodiscard]] float sample(std::uint32_t b, std::uint32_t x, std::uint32_t y, std::uint32_t z) const {
         std::uint32_t s = brick_side();
-        return std::bit_cast<float>(bricks[std::size_t{b} * brick_words() + x + s * (y + std::size_t{s} * z)]);
+        return shared::sylva_oct_brick_value(shared::Words{bricks.data(), bricks.size()}, b * brick_words(),
+                                             static_cast<std::uint32_t>(format), x + s * (y + s * z));
     }
     /// Bytes of the bricks.
     [[nodiscard]] std::size_t brick_bytes() const { return bricks.size() * 4u; }
@@ -124,6 +137,13 @@ struct Config {
     /// the default is 2: every shaded sample then reads one brick.
     /// Costs (36/34)^3 = 1.19x the brick memory of border 1 for B = 32, 1.37x for B = 16.
     std::uint32_t border = 2;
+    /// How bricks store samples. Float32 (default) keeps every density; Unorm16 (the paper's
+    /// "16-bit texels") and Unorm8 round each density to the nearest of 65536 or 256 steps, for
+    /// half or a quarter of the memory. A uint16 / uint8 volume normalised over its type's range
+    /// (volume::normalize of a Type-range volume, or any range whose densities are v / 65535 or
+    /// v / 255) loses nothing: its octree then renders the marcher's image bit for bit. Node
+    /// ranges are those of the rounded samples (culling stays exact).
+    BrickFormat format = BrickFormat::Float32;
 };
 
 namespace detail {
@@ -140,6 +160,9 @@ inline void check_config(const Config& cfg) {
     if (cfg.border < 1 || cfg.border > 2)
         throw Error("octree::build: border " + std::to_string(cfg.border) +
                     " is not 1 (trilinear) or 2 (trilinear and gradients)");
+    if (!shared::sylva_oct_brick_format_ok(static_cast<std::uint32_t>(cfg.format)))
+        throw Error("octree::build: unknown brick format " + std::to_string(static_cast<std::uint32_t>(cfg.format)) +
+                    " (Float32, Unorm16 or Unorm8)");
 }
 
 /// Checks the grid: every extent in [1, 2^24 - 1], as many values as voxels, densities finite
@@ -246,7 +269,24 @@ inline std::vector<Node> complete_nodes(const Tree& t) {
     return nodes;
 }
 
-/// Fills node n's brick from the pyramid level of its depth (borders clamped at the edge).
+/// The largest integer sample of a unorm format (65535, 255); 0 for float32.
+inline std::uint32_t unorm_max(BrickFormat f) {
+    return f == BrickFormat::Unorm16 ? 65535u : (f == BrickFormat::Unorm8 ? 255u : 0u);
+}
+
+/// Density d in [0, 1] rounded to the nearest step of `max` (v / max gives v back).
+inline std::uint32_t quantise(float d, std::uint32_t max) {
+    return static_cast<std::uint32_t>(std::lround(double(std::clamp(d, 0.0f, 1.0f)) * double(max)));
+}
+
+/// The density a sample of d reads back in format f (sylva_oct_brick_value's arithmetic).
+inline float stored_density(float d, BrickFormat f) {
+    std::uint32_t max = unorm_max(f);
+    return max == 0u ? d : float(quantise(d, max)) / float(max);
+}
+
+/// Fills node n's brick from the pyramid level of its depth (borders clamped at the edge), in
+/// the tree's format.
 inline void fill_brick(Tree& t, const std::vector<LodLevel>& lod, std::size_t n) {
     const Node& node = t.nodes[n];
     const LodLevel& src = lod[t.levels - 1u - node.level];
@@ -254,11 +294,20 @@ inline void fill_brick(Tree& t, const std::vector<LodLevel>& lod, std::size_t n)
     const glm::ivec3 lo = glm::ivec3(node.coord * t.brick_size) - int(t.border);
     const glm::ivec3 top = glm::ivec3(src.dims) - 1;
     std::uint32_t* out = t.bricks.data() + std::size_t{node.brick} * t.brick_words();
+    const std::uint32_t max = unorm_max(t.format);
+    const std::uint32_t bits = t.format == BrickFormat::Unorm16 ? 16u : 8u;
+    std::uint32_t j = 0;
     for (std::uint32_t z = 0; z < s; ++z)
         for (std::uint32_t y = 0; y < s; ++y)
-            for (std::uint32_t x = 0; x < s; ++x) {
+            for (std::uint32_t x = 0; x < s; ++x, ++j) {
                 glm::ivec3 v = glm::clamp(lo + glm::ivec3(x, y, z), glm::ivec3(0), top);
-                *out++ = std::bit_cast<std::uint32_t>(src.at(std::uint32_t(v.x), std::uint32_t(v.y), std::uint32_t(v.z)));
+                float d = src.at(std::uint32_t(v.x), std::uint32_t(v.y), std::uint32_t(v.z));
+                if (max == 0u) {
+                    out[j] = std::bit_cast<std::uint32_t>(d);
+                } else {
+                    std::uint32_t per_word = 32u / bits;  // 2 or 4 samples a word, low bits first
+                    out[j / per_word] |= quantise(d, max) << ((j % per_word) * bits);
+                }
             }
 }
 
@@ -297,6 +346,8 @@ void fill_bricks_and_ranges(Tree& t, const std::vector<LodLevel>& lod, X& exec) 
                 fill_brick(t, lod, n);
                 Node& node = t.nodes[n];
                 auto [a, b] = own_range(t, lod, node);
+                a = stored_density(a, t.format);  // rounding is monotonic: the stored samples' range
+                b = stored_density(b, t.format);
                 for (std::uint32_t o = 0, c = node.first_child; o < 8; ++o) {
                     if (((node.child_mask >> o) & 1u) == 0u) continue;
                     a = std::min(a, t.nodes[c].min);
@@ -361,6 +412,7 @@ Tree build(const volume::DensityGrid& g, X& exec, const Config& cfg = {}) {
     t.brick_size = cfg.brick_size;
     t.border = cfg.border;
     t.levels = detail::level_count(g.dims, cfg.brick_size);
+    t.format = cfg.format;
     if (t.levels > kMaxLevels)
         throw Error("octree::build: a " + detail::dims_text(g.dims) + " volume in bricks of " +
                     std::to_string(cfg.brick_size) + " needs " + std::to_string(t.levels) + " levels, more than " +

@@ -62,7 +62,7 @@ inline std::vector<std::uint32_t> encode(const Tree& t, std::uint32_t state = SY
         w[13 + a] = std::bit_cast<std::uint32_t>(1.0f / t.spacing[a]);
         w[16 + a] = std::bit_cast<std::uint32_t>(0.0f);
     }
-    w[5] = t.brick_size | (t.border << 8) | (t.levels << 16) | (SYLVA_OCT_FORMAT_FLOAT32 << 24);
+    w[5] = t.brick_size | (t.border << 8) | (t.levels << 16) | (static_cast<std::uint32_t>(t.format) << 24);
     w[6] = static_cast<std::uint32_t>(t.nodes.size());
     w[7] = static_cast<std::uint32_t>(t.brick_count());
     w[8] = t.brick_words();

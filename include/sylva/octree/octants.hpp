@@ -40,9 +40,11 @@ struct OctantRanges {
 
 namespace detail {
 
-/// Octant o's ranges of one brick (S samples a side, border b, B voxels): per axis, brick
-/// samples [b - 1, b + B/2] for the lower half, [b + B/2 - 1, b + B] for the upper one.
-inline void brick_octant_ranges(const std::uint32_t* brick, std::uint32_t B, std::uint32_t b, float* out) {
+/// Octant o's ranges of one brick (S samples a side, border b, B voxels, samples in `format`,
+/// its words from `base` of `bricks`): per axis, brick samples [b - 1, b + B/2] for the lower
+/// half, [b + B/2 - 1, b + B] for the upper one.
+inline void brick_octant_ranges(shared::Words bricks, std::uint32_t base, std::uint32_t format, std::uint32_t B, std::uint32_t b,
+                                float* out) {
     const std::uint32_t S = B + 2u * b;
     for (std::uint32_t o = 0; o < 8; ++o) {
         std::uint32_t lo[3], hi[3];
@@ -55,7 +57,7 @@ inline void brick_octant_ranges(const std::uint32_t* brick, std::uint32_t B, std
         for (std::uint32_t zz = lo[2]; zz <= hi[2]; ++zz)
             for (std::uint32_t y = lo[1]; y <= hi[1]; ++y)
                 for (std::uint32_t x = lo[0]; x <= hi[0]; ++x) {
-                    float v = std::bit_cast<float>(brick[x + S * (y + std::size_t{S} * zz)]);
+                    float v = shared::sylva_oct_brick_value(bricks, base, format, x + S * (y + S * zz));
                     a = std::min(a, v);
                     z = std::max(z, v);
                 }
@@ -90,7 +92,8 @@ OctantRanges octant_ranges(std::span<const std::uint32_t> words, std::span<const
                 for (std::uint32_t o = 0; o < 8; ++o) out[2 * o] = -inf, out[2 * o + 1] = inf;
                 continue;
             }
-            detail::brick_octant_ranges(bricks.data() + std::size_t{brick} * h.brick_words, h.brick_size, h.border, out);
+            detail::brick_octant_ranges(shared::Words{bricks.data(), bricks.size()}, brick * h.brick_words, h.format,
+                                        h.brick_size, h.border, out);
         }
     });
     return r;

@@ -40,15 +40,16 @@ inline void validate_header(std::span<const std::uint32_t> w, std::size_t brick_
     if (b < 4 || b > 64 || !std::has_single_bit(b))
         invalid("brick size " + std::to_string(b) + " is not a power of two from 4 to 64");
     if (border < 1 || border > 2) invalid("border " + std::to_string(border) + " is not 1 or 2");
-    if (format != SYLVA_OCT_FORMAT_FLOAT32) invalid("unknown brick format " + std::to_string(format));
+    if (!shared::sylva_oct_brick_format_ok(format))
+        invalid("unknown brick format " + std::to_string(format) + " (0 float32, 2 unorm16, 3 unorm8)");
     std::uint32_t want = shared::sylva_oct_level_count(glm::u32vec3(w[2], w[3], w[4]), b);
     if (levels != want || levels > SYLVA_OCT_MAX_LEVELS)
         invalid(std::to_string(levels) + " levels, the extents and brick size need " + std::to_string(want) +
                 " (at most 17)");
-    std::uint32_t side = b + 2 * border;
-    if (w[8] != side * side * side)
-        invalid("brick words " + std::to_string(w[8]) + ", a brick of side " + std::to_string(side) + " has " +
-                std::to_string(side * side * side));
+    std::uint32_t side = b + 2 * border, brick_words = shared::sylva_oct_brick_word_count(side, format);
+    if (w[8] != brick_words)
+        invalid("brick words " + std::to_string(w[8]) + ", a brick of side " + std::to_string(side) + " in format " +
+                std::to_string(format) + " has " + std::to_string(brick_words));
     std::size_t records = (w.size() - SYLVA_OCT_HEADER_WORDS) / SYLVA_OCT_NODE_WORDS;
     if ((w.size() - SYLVA_OCT_HEADER_WORDS) % SYLVA_OCT_NODE_WORDS != 0 || w[6] != records || w[6] == 0)
         invalid(std::to_string(w[6]) + " nodes stated, the buffer holds " + std::to_string(records) +
@@ -182,9 +183,11 @@ inline void validate(std::span<const std::uint32_t> words, std::span<const std::
     for (std::size_t n = 0; n < h.node_count; ++n) detail::validate_record(words, h, n);
     detail::validate_children(words, h);
     detail::validate_neighbours(words, h);
-    for (std::size_t i = 0; i < bricks.size(); ++i)
-        if ((bricks[i] & 0x7F800000u) == 0x7F800000u)
-            detail::invalid("brick sample " + std::to_string(i) + " is not a finite float");
+    if (h.format == SYLVA_OCT_FORMAT_FLOAT32) {  // integer samples are always in range
+        for (std::size_t i = 0; i < bricks.size(); ++i)
+            if ((bricks[i] & 0x7F800000u) == 0x7F800000u)
+                detail::invalid("brick sample " + std::to_string(i) + " is not a finite float");
+    }
 }
 
 }  // namespace sylva::octree

@@ -36,6 +36,7 @@
 #include "sylva/shared/dvr.h"
 #include "sylva/shared/dvr_common.h"
 #include "sylva/shared/grid_sample.h"
+#include "sylva/shared/octree_brick.h"
 #include "sylva/shared/octree_iter.h"
 #include "sylva/shared/tf.h"
 
@@ -86,6 +87,7 @@ struct SylvaOctBrick {
     uvec3 dims;     ///< the level's extent in voxels: ceil(dims / 2^s), s = L - 1 - level
     vec3 spacing;   ///< world size of one voxel of the level: spacing * 2^s
     uint side;      ///< samples per brick side, B + 2 * border
+    uint format;    ///< SYLVA_OCT_FORMAT_* (octree_layout.h: float32, unorm16, unorm8 samples)
     uint border_mode;    ///< SYLVA_BORDER_* (parameter word 38)
     float border_value;  ///< density outside the volume for SYLVA_BORDER_CONSTANT (word 39)
 };
@@ -100,6 +102,7 @@ SYLVA_FN SylvaOctBrick sylva_oct_brick_of(SYLVA_BUF(words), SYLVA_IN(SylvaOctHea
     uint s = h.levels - 1u - level;
     uint w = 1u << s;
     b.side = h.brick_size + 2u * h.border;
+    b.format = h.format;
     b.base = sylva_oct_brick(SYLVA_PASS_BUF(words), node) * h.brick_words;
     b.origin = ivec3(int(coord.x * h.brick_size) - int(h.border), int(coord.y * h.brick_size) - int(h.border),
                      int(coord.z * h.brick_size) - int(h.border));
@@ -114,9 +117,9 @@ SYLVA_FN_HOT uint sylva_oct_brick_local(uint i, int origin, uint side) {
     return uint(clamp(int(i) - origin, 0, int(side) - 1));
 }
 
-/// Brick word of local sample (x, y, z), as a float.
+/// Local sample (x, y, z) of the brick as a normalised density (its format's decoding).
 SYLVA_FN_HOT float sylva_oct_brick_at(SYLVA_BUF(bricks), SYLVA_IN(SylvaOctBrick) b, uint x, uint y, uint z) {
-    return uintBitsToFloat(SYLVA_LOAD(bricks, b.base + x + b.side * (y + b.side * z)));
+    return sylva_oct_brick_value(SYLVA_PASS_BUF(bricks), b.base, b.format, x + b.side * (y + b.side * z));
 }
 
 /// Trilinear density at world point p from the brick, edges clamped: sylva_grid_sample_clamped's
@@ -162,8 +165,11 @@ SYLVA_FN_HOT float sylva_oct_brick_density_constant(SYLVA_BUF(bricks), SYLVA_IN(
     int y0 = int(fl.y);
     int z0 = int(fl.z);
     SYLVA_PRECISE vec3 f = vec3(u.x - fl.x, u.y - fl.y, u.z - fl.z);
+#ifdef __cplusplus
+    // The host takes the border-free reads when all eight corners are inside (the same values);
+    // a shader keeps one read site per corner (its compile grows with every inlined read).
     if (x0 >= 0 && y0 >= 0 && z0 >= 0 && uint(x0) + 1u < b.dims.x && uint(y0) + 1u < b.dims.y &&
-        uint(z0) + 1u < b.dims.z) {  // all eight corners inside: brick reads without border tests
+        uint(z0) + 1u < b.dims.z) {
         uvec3 l0 = uvec3(sylva_oct_brick_local(uint(x0), b.origin.x, b.side), sylva_oct_brick_local(uint(y0), b.origin.y, b.side),
                          sylva_oct_brick_local(uint(z0), b.origin.z, b.side));
         uvec3 l1 = uvec3(sylva_oct_brick_local(uint(x0) + 1u, b.origin.x, b.side),
@@ -178,6 +184,7 @@ SYLVA_FN_HOT float sylva_oct_brick_density_constant(SYLVA_BUF(bricks), SYLVA_IN(
                                 sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l1.z),
                                 sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l1.z), f);
     }
+#endif
     return sylva_grid_blend(sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0, y0, z0),
                             sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0 + 1, y0, z0),
                             sylva_oct_brick_voxel_or_border(SYLVA_PASS_BUF(bricks), b, x0, y0 + 1, z0),

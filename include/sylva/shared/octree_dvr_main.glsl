@@ -28,7 +28,12 @@
 // Push constants: max level (the cut), the brick buffer's word count (its parts are split),
 // mode (0 DVR, 1 iso; the iso value is the parameter block's), feedback (1: write binding 9),
 // octmask (1: DVR skips the octants binding 10 marks empty).
-// Specialization constants: 0 split shift of the bricks, 1 parts holding data (1: fast loads).
+// Specialization constants: 0 split shift of the bricks, 1 parts holding data (1: fast loads),
+// 2 the brick format (SYLVA_OCT_FORMAT_*; an index of another format is refused) and 3 the border
+// mode (SYLVA_BORDER_*); 0xFFFFFFFF reads them from the index and the parameter block.
+// vk::DeviceOctree::constants() fixes both, so that each pipeline holds one brick decoder and
+// one border sampler: with every combination inlined into the sampler's many call sites,
+// lavapipe's compile ran for over 15 minutes and 7 GB (stopped).
 #ifndef SYLVA_SHARED_OCTREE_DVR_MAIN_GLSL
 #define SYLVA_SHARED_OCTREE_DVR_MAIN_GLSL
 
@@ -37,6 +42,8 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
 layout(constant_id = 1) const uint BRICK_PARTS = 4u;
+layout(constant_id = 2) const uint BRICK_FORMAT = 0xFFFFFFFFu;
+layout(constant_id = 3) const uint BORDER_MODE = 0xFFFFFFFFu;
 
 #include "sylva/shared/split_words.glsl"
 SYLVA_SPLIT_WORDS_COUNTED(bricks, 0, SPLIT_SHIFT, BRICK_PARTS)
@@ -77,6 +84,11 @@ void main() {
     if (px.x >= p.width || px.y >= p.height) return;
     SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
     SylvaOctHeader h = sylva_oct_read_header(0u, uint(index_words.length()), pc.brick_buffer_words);
+    if (BRICK_FORMAT != 0xFFFFFFFFu) {
+        if (h.format != BRICK_FORMAT) h.valid = 0u;  // the pipeline decodes one format only
+        h.format = BRICK_FORMAT;
+    }
+    if (BORDER_MODE != 0xFFFFFFFFu) p.border = BORDER_MODE;
     uint steps;
     uint visits;
     uint status;

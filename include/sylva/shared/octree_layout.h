@@ -14,10 +14,11 @@
 //   2-4     dims: volume extent in voxels per axis (each 1 .. 2^24 - 1)
 //   5       bits 0-7: brick size B (a power of two, 4 .. 64); bits 8-15: border b (1 or 2);
 //           bits 16-23: levels L (1 .. 17, = 1 + ceil(log2(max ceil(dims / B)))); bits 24-31:
-//           brick format (0 = float32 samples)
+//           brick format: SYLVA_OCT_FORMAT_FLOAT32 (0), _UNORM16 (2), _UNORM8 (3) (1 is the
+//           element octree's, sylva/shared/octree_elem_iter.h)
 //   6       node count N (>= 1)
 //   7       brick count M (the brick buffer holds M * brick words words)
-//   8       brick words: (B + 2 b)^3
+//   8       brick words: S^3 (float32), ceil(S^3 / 2) (unorm16), ceil(S^3 / 4) (unorm8), S = B + 2 b
 //   9       total index words: 20 + 16 N
 //   10-12   spacing (float bits, finite, > 0): world size of one voxel
 //   13-15   1 / spacing (float bits, finite, > 0; computed on the host, so both targets map rays
@@ -45,12 +46,17 @@
 //     +11   max (float bits): the greatest
 //     +12   brick index into the brick buffer (< M); SYLVA_OCT_NONE: no brick
 //     +13..15 reserved, 0 (the out-of-core store's bookkeeping)
-// Bricks are a separate buffer `bricks` of M * brick words words: float32 bits of normalised
-// densities; sample (x, y, z) of brick i (each in [0, S), S = B + 2 b, x fastest) is word
-// i * S^3 + x + S * (y + S * z) and holds the (coarse) voxel c * B - b + (x, y, z) of the node's
-// level, clamped to that level's extent (ceil(dims / 2^(L - 1 - l)) coarse voxels per axis).
-// Float32 rather than the paper's 16-bit texels: the full-resolution cut must reproduce the
-// reference marcher bit for bit, which reads float densities.
+// Bricks are a separate buffer `bricks` of M * brick words words; sample (x, y, z) of brick i
+// (each in [0, S), S = B + 2 b, x fastest) is sample j = x + S * (y + S * z) of the brick's words
+// (from word i * brick words) and holds the (coarse) voxel c * B - b + (x, y, z) of the node's
+// level, clamped to that level's extent (ceil(dims / 2^(L - 1 - l)) coarse voxels per axis):
+//   float32  word j: the float bits of the normalised density
+//   unorm16  bits 16 (j & 1) .. + 15 of word j >> 1: q, density q / 65535 (the paper's 16-bit texels)
+//   unorm8   bits 8 (j & 3) .. + 7 of word j >> 2: q, density q / 255
+// (sylva/shared/octree_brick.h: sylva_oct_brick_value). The integer formats read exactly as the grid samplers read a uint8 /
+// uint16 volume normalised over its type's range (sylva/shared/grid_sample.h: (v - 0) / 255), so
+// such a volume's octree renders the marcher's image bit for bit in a quarter (half) of the
+// float32 bricks' memory; other densities are rounded to the nearest step (octree/build.hpp).
 #ifndef SYLVA_SHARED_OCTREE_LAYOUT_H
 #define SYLVA_SHARED_OCTREE_LAYOUT_H
 
@@ -64,6 +70,8 @@
 #define SYLVA_OCT_MAX_LEVELS 17u
 #define SYLVA_OCT_MAX_DIM 16777215u
 #define SYLVA_OCT_FORMAT_FLOAT32 0u
+#define SYLVA_OCT_FORMAT_UNORM16 2u
+#define SYLVA_OCT_FORMAT_UNORM8 3u
 #define SYLVA_OCT_BRICK_ABSENT 0u
 #define SYLVA_OCT_BRICK_HOST 1u
 #define SYLVA_OCT_BRICK_RESIDENT 2u
@@ -145,19 +153,32 @@ SYLVA_FN bool sylva_oct_common_header_ok(SYLVA_BUF(words), uint word_count, Sylv
     return ok;
 }
 
+/// True for a brick format of the volume octree (float32, unorm16, unorm8).
+SYLVA_FN bool sylva_oct_brick_format_ok(uint format) {
+    return format == SYLVA_OCT_FORMAT_FLOAT32 || format == SYLVA_OCT_FORMAT_UNORM16 || format == SYLVA_OCT_FORMAT_UNORM8;
+}
+
+/// Words of one brick of `side`^3 samples in `format` (side <= 132: no overflow).
+SYLVA_FN uint sylva_oct_brick_word_count(uint side, uint format) {
+    uint samples = side * side * side;
+    if (format == SYLVA_OCT_FORMAT_UNORM16) return (samples + 1u) / 2u;
+    if (format == SYLVA_OCT_FORMAT_UNORM8) return (samples + 3u) / 4u;
+    return samples;
+}
+
 /// Reads and checks the header of an index of `word_count` words beside a brick buffer of
-/// `brick_buffer_words` words: the common checks, format 0 (float32 bricks), brick size,
+/// `brick_buffer_words` words: the common checks, a brick format of this octree, brick size,
 /// border, level count, node count against the size, brick words and count against the brick
 /// buffer. Invalid: valid = 0. Node records are not checked here (sylva/octree/validate.hpp
 /// does; the iterator stops with an error on inconsistent ones).
 SYLVA_FN SylvaOctHeader sylva_oct_read_header(SYLVA_BUF(words), uint word_count, uint brick_buffer_words) {
     SylvaOctHeader h = sylva_oct_decode_header(SYLVA_PASS_BUF(words));
-    bool ok = sylva_oct_common_header_ok(SYLVA_PASS_BUF(words), word_count, h) && h.format == SYLVA_OCT_FORMAT_FLOAT32;
+    bool ok = sylva_oct_common_header_ok(SYLVA_PASS_BUF(words), word_count, h) && sylva_oct_brick_format_ok(h.format);
     ok = ok && h.brick_size >= 4u && h.brick_size <= 64u && (h.brick_size & (h.brick_size - 1u)) == 0u &&
          h.border >= 1u && h.border <= 2u;
     ok = ok && h.levels == sylva_oct_level_count(h.dims, h.brick_size) && h.levels <= SYLVA_OCT_MAX_LEVELS;
     uint side = h.brick_size + 2u * h.border;
-    ok = ok && h.brick_words == side * side * side;
+    ok = ok && h.brick_words == sylva_oct_brick_word_count(side, h.format);
     // Node count against the size, without overflow: (word_count - 20) / 16 records exactly.
     ok = ok && h.node_count >= 1u && (word_count - SYLVA_OCT_HEADER_WORDS) / SYLVA_OCT_NODE_WORDS == h.node_count &&
          (word_count - SYLVA_OCT_HEADER_WORDS) % SYLVA_OCT_NODE_WORDS == 0u;

@@ -86,6 +86,7 @@ namespace detail {
 /// The octree's nodes and neighbours without bricks (octree::build's, brick n = node n).
 inline octree::Tree skeleton(volume::Dims dims, vec3 spacing, const octree::Config& cfg) {
     octree::detail::check_config(cfg);
+    if (cfg.format != octree::BrickFormat::Float32) throw Error("store: the store holds float32 bricks (BrickFormat::Float32)");
     if (dims.x == 0 || dims.y == 0 || dims.z == 0 || dims.x > octree::kMaxDim || dims.y > octree::kMaxDim ||
         dims.z > octree::kMaxDim)
         throw Error("store: the volume is " + octree::detail::dims_text(dims) +

@@ -38,6 +38,8 @@ inline BuildInfo build_info_of(const octree::Tree& t, std::string input, Codec c
 /// a brick and brick key n is node n's (octree::build numbers them so).
 inline void write_tree(const octree::Tree& t, const std::filesystem::path& path, const BuildInfo& info,
                        const WriterConfig& cfg = {}) {
+    if (t.format != octree::BrickFormat::Float32)
+        throw Error("store::write_tree: the store holds float32 bricks; build the octree with BrickFormat::Float32");
     if (t.brick_count() != t.nodes.size()) throw Error("store::write_tree: the tree does not have one brick per node");
     StoreWriter w = StoreWriter::create(path, info, false, cfg);
     std::vector<std::byte> enc;

@@ -102,13 +102,18 @@ public:
     /// What samples read outside the volume (OctreeView::border; a constant 0 for an octree made
     /// from a pool's words until set_border).
     [[nodiscard]] GridBorder border() const { return border_; }
-    /// Sets the border mode of later renders (throws sylva::Error for a non-finite value).
+    /// Sets the border mode of later renders (throws sylva::Error for a non-finite value); a new
+    /// mode builds the library kernel again on its next use (a user kernel is made for one mode).
     void set_border(GridBorder b) {
         b.check();
+        if (b.mode != border_.mode) kernel_.reset();
         border_ = b;
     }
-    /// Specialization constants of octree_dvr.comp: the bricks' split shift and parts holding data.
-    [[nodiscard]] std::array<std::uint32_t, 2> constants() const { return {bricks_.shift, parts_}; }
+    /// Specialization constants of octree_dvr.comp: the bricks' split shift, parts holding data,
+    /// brick format and border mode (sylva/shared/octree_dvr_main.glsl).
+    [[nodiscard]] std::array<std::uint32_t, 4> constants() const {
+        return {bricks_.shift, parts_, header_.format, static_cast<std::uint32_t>(border_.mode)};
+    }
     /// The kernel for this octree's brick split, built on first use and kept.
     Kernel& kernel(Context& ctx) {
         if (!kernel_) kernel_.emplace(ctx, spirv::octree_dvr, 12, 20, constants());
@@ -116,7 +121,8 @@ public:
     }
     /// A kernel of your SPIR-V built from sylva/shared/octree_dvr_main.glsl (the octree kernel's
     /// bindings, push and specialization constants, e.g. with a GLSL TF hook, sylva/shared/tf.h),
-    /// for render_octree_dvr_vulkan / render_octree_iso_vulkan(..., &kernel).
+    /// for render_octree_dvr_vulkan / render_octree_iso_vulkan(..., &kernel), made for the
+    /// octree's brick format and current border mode.
     [[nodiscard]] Kernel user_kernel(Context& ctx, std::span<const std::uint32_t> spirv) const {
         return Kernel(ctx, spirv, 12, 20, constants());
     }
