@@ -14,6 +14,8 @@
 // with the bench's rays as a PixelRays buffer, the analytic TF as a host hook (TfKind::Hook),
 // OpacityCorrection::None, dt = 1; their images must equal the hand loops' bit for bit (the
 // bench stops otherwise). Their steps per ray are the renderers' (Frame::steps), samples 0.
+// And the bricked octree through the API (sylva-api-octree: unorm8 bricks of 16^3, octant
+// masks, the hook's visibility query for skipping), whose image must equal the API marcher's.
 // Same rays for all: an orthographic camera (one ray a pixel, pixels one voxel apart on an image
 // plane in front of the volume), a 1-voxel lattice t_k = k fixed to the image plane, samples
 // only inside the volume's box [0, dims], outside the data reading 0. Same analytic transfer
@@ -63,6 +65,10 @@
 
 #include <sylva/core/executor.hpp>
 #include <sylva/kdtree/encode.hpp>
+#include <sylva/octree/build.hpp>
+#include <sylva/octree/encode.hpp>
+#include <sylva/octree/octants.hpp>
+#include <sylva/render/octree_volume.hpp>
 #include <sylva/render/kd_volume.hpp>
 #include <sylva/render/volume.hpp>
 #include <sylva/shared/kd_dvr.h>
@@ -698,7 +704,45 @@ std::vector<Row> bench_volume(const Options& o, const std::string& name, const s
                     std::to_string(r10.diff.pixels - r10.diff.same_bits) + " kd pixels, max |diff| " +
                     std::to_string(r9.diff.max_abs) + ", RGBA8-identical " + std::to_string(r9.diff.same_rgba8) + " of " +
                     std::to_string(r9.diff.pixels) + ")");
-    rows = {r1, r2, r3, r4, r5, r6, r7, r8, r9, r10};
+    // The bricked octree through the same API (sylva-api-octree): unorm8 bricks of 16^3 (border
+    // 1: unshaded samples read no further, sylva/shared/octree_dvr.h) holding
+    // the same voxels (v / 255 exactly), the constant 0 border, the hook's visibility (alpha 0 at
+    // d <= 0.1) for its empty-node and octant tests. Build: the float grid the builder reads, the
+    // octree, its encoding and the octant masks; cold = the first in the process.
+    VolumeRenderParams aq = ap;
+    aq.tf_hook_visible = [](float, float hi) { return hi > 0.1f; };
+    auto build_octree = [&](octree::Tree& t, std::vector<std::uint32_t>& words, std::vector<std::uint32_t>& masks) {
+        t = octree::build(volume::normalize(v), pool, {16, 1, octree::BrickFormat::Unorm8});
+        words = octree::encode(t);
+        masks = octree::octant_masks(octree::octant_ranges(words, t.bricks, pool), tf_opacity_prefix(aq), 0.0f);
+    };
+    octree::Tree ot;
+    std::vector<std::uint32_t> owords, omasks;
+    heap0 = reset_peak();
+    t0 = Clock::now();
+    build_octree(ot, owords, omasks);
+    double oct_cold = ms_since(t0);
+    double oct_peak = double(g_heap_peak.load() - heap0) / 1e6;
+    t0 = Clock::now();
+    build_octree(ot, owords, omasks);
+    double oct_warm = ms_since(t0);
+    OctreeView oview{owords, ot.bricks, 0xFFFFFFFFu, {}, omasks};
+    Image aoct = timed_api(o.runs, npx, rps, [&] { return render_octree_dvr_cpu(oview, aq, pool); });
+    Row r11 = row("sylva-api-octree", aoct, rps);
+    r11.build_cold_ms = oct_cold;
+    r11.build_warm_ms = oct_warm;
+    r11.build_peak_mb = oct_peak;
+    r11.grid_bytes = ot.brick_bytes();
+    r11.index_bytes = (owords.size() + omasks.size()) * 4;
+    r11.reference = "sylva-api-plain";
+    r11.diff = compare(aoct, aplain);
+    if (r11.diff.same_bits != r11.diff.pixels)
+        throw Error("nanovdb-bench: " + name + ": the octree's image differs from the marcher's (" +
+                    std::to_string(r11.diff.pixels - r11.diff.same_bits) + " pixels)");
+    Row r12 = r11;
+    r12.reference = "nanovdb-hdda";
+    r12.diff = compare(aoct, nhdda);
+    rows = {r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11, r12};
     return rows;
 }
 

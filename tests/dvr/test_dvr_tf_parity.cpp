@@ -114,6 +114,10 @@ TEST_CASE("TFs on Vulkan: float tables, the GLSL hook and the opacity correction
             }
             check("octree hook", render_octree_dvr_cpu(OctreeView{oct_words, oct.bricks}, h, pool),
                   vk::render_octree_dvr_vulkan(ctx, doct, h, {}, {}, &oct_hook_kernel));
+            VolumeRenderParams hv = h;  // the hook's visibility query: the same skipping on both sides
+            hv.tf_hook_visible = [](float, float hi) { return hi > 0.1f; };
+            check("octree hook, visibility", render_octree_dvr_cpu(OctreeView{oct_words, oct.bricks}, hv, pool),
+                  vk::render_octree_dvr_vulkan(ctx, doct, hv, {}, {}, &oct_hook_kernel));
         }
     }
     VolumeRenderParams h = base;

@@ -12,6 +12,7 @@
 
 #include <sylva/octree/build.hpp>
 #include <sylva/octree/encode.hpp>
+#include <sylva/octree/octants.hpp>
 #include <sylva/octree/validate.hpp>
 #include <sylva/render/octree_volume.hpp>
 #include <sylva/render/volume.hpp>
@@ -267,4 +268,35 @@ TEST_CASE("octree DVR and iso: unorm8 / unorm16 bricks of a uint8 / uint16 volum
     CHECK(t.nodes[0].max == std::round(f32.nodes[0].max * 255.0f) / 255.0f);
     octree::Config bad{8, 2, static_cast<octree::BrickFormat>(1)};
     CHECK_THROWS_WITH(octree::build(g, pool, bad), Catch::Contains("unknown brick format 1"));
+}
+
+TEST_CASE("octree DVR with a TF hook skips what the hook's visibility query rules out, the image unchanged",
+          "[octree][dvr][tf]") {
+    ThreadPool pool(2);
+    volume::DensityGrid g = blobs({64, 64, 64}, 24);
+    octree::Tree t = octree::build(g, pool, {8, 2});
+    std::vector<std::uint32_t> words = octree::encode(t);
+    VolumeRenderParams p = params(g, 48, {0.3f, 0.5f, 1.0f}, true, 0.55f);
+    p.tf_kind = TfKind::Hook;
+    p.tf_hook = [](float d) { return vec4(d, 0.5f, 1.0f - d, d <= 0.55f ? 0.0f : (d - 0.55f) * 0.6f); };
+    Frame ref = render_dvr_cpu(GridWords::from(g), p, pool);
+    Frame blind = render_octree_dvr_cpu(OctreeView{words, t.bricks}, p, pool);  // no query: nothing skipped by the TF
+    VolumeRenderParams q = p;
+    q.tf_hook_visible = [](float, float hi) { return hi > 0.55f; };
+    REQUIRE(tf_skip_entries(q) == kHookSkipEntries);
+    Frame skipping = render_octree_dvr_cpu(OctreeView{words, t.bricks}, q, pool);
+    std::vector<std::uint32_t> masks = octree::octant_masks(octree::octant_ranges(words, t.bricks, pool), tf_opacity_prefix(q), 0.0f);
+    Frame masked = render_octree_dvr_cpu(OctreeView{words, t.bricks, 0xFFFFFFFFu, {}, masks}, q, pool);
+    CHECK(differing(ref, blind) == 0);
+    CHECK(differing(ref, skipping) == 0);
+    CHECK(differing(ref, masked) == 0);
+    CHECK(opacity_sum(ref) > 10.0);
+    INFO("samples: no query " << total_samples(blind) << ", query " << total_samples(skipping) << ", with octants "
+                              << total_samples(masked));
+    CHECK(total_samples(skipping) < total_samples(blind) * 3 / 4);
+    CHECK(total_samples(masked) < total_samples(skipping));
+    // A query that lies (claims nothing is visible) is what skips: the image then loses the blobs.
+    VolumeRenderParams liar = p;
+    liar.tf_hook_visible = [](float, float) { return false; };
+    CHECK(opacity_sum(render_octree_dvr_cpu(OctreeView{words, t.bricks}, liar, pool)) == 0.0);
 }

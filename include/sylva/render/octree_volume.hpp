@@ -64,13 +64,25 @@ inline std::vector<std::uint32_t> tf_opacity_prefix(std::span<const std::uint32_
 }
 
 /// tf_opacity_prefix of p's transfer function: its RGBA8 table's, its float table's (alpha > 0),
-/// or for a hook, whose zeros the octree cannot know, an always-visible TF of tf_entries(p) = 2
-/// entries (no node or octant is skipped by the TF then; give a table to skip).
+/// or for a hook with tf_hook_visible a table of tf_skip_entries(p) entries, entry i visible when
+/// the hook may show a density within two entries of it ([(i - 2) / (N - 1), (i + 2) / (N - 1)]:
+/// sylva_oct_tf_empty reads one entry of slack on each side of a range, so every density an
+/// empty verdict covers lies in some clear entry's interval). A hook without tf_hook_visible,
+/// whose zeros the octree cannot know, gets an always-visible table (nothing skipped by the TF).
 inline std::vector<std::uint32_t> tf_opacity_prefix(const VolumeRenderParams& p) {
     if (p.tf_kind == TfKind::Rgba8) return tf_opacity_prefix(p.tf);
-    std::vector<std::uint32_t> sum(tf_entries(p) + 1, 0u);
-    for (std::size_t i = 0; i + 1 < sum.size(); ++i) {
-        bool visible = p.tf_kind == TfKind::Hook || p.tf_rgba32f[i * 4 + 3] > 0.0f;
+    const std::uint32_t n = tf_skip_entries(p);
+    std::vector<std::uint32_t> sum(std::size_t{n} + 1, 0u);
+    for (std::uint32_t i = 0; i < n; ++i) {
+        bool visible;
+        if (p.tf_kind != TfKind::Hook) {
+            visible = p.tf_rgba32f[std::size_t{i} * 4 + 3] > 0.0f;
+        } else if (!p.tf_hook_visible) {
+            visible = true;
+        } else {
+            const float step = 1.0f / float(n - 1u);
+            visible = p.tf_hook_visible(std::max(0.0f, float(int(i) - 2) * step), std::min(1.0f, float(i + 2u) * step));
+        }
         sum[i + 1] = sum[i] + (visible ? 1u : 0u);
     }
     return sum;
@@ -167,7 +179,7 @@ struct OctreeTerminal {
     bool iso = false;
     OctreeTerminal(std::span<const std::uint32_t> w, const VolumeRenderParams& p, bool iso_mode, GridBorder b = {})
         : words(w), tfsum(tf_opacity_prefix(p)), border(border_params(b)),
-          header(shared::sylva_oct_decode_header(shared::Words{w.data(), w.size()})), entries(tf_entries(p)),
+          header(shared::sylva_oct_decode_header(shared::Words{w.data(), w.size()})), entries(tf_skip_entries(p)),
           iso_value(p.iso), iso(iso_mode) {}
     bool operator()(std::uint32_t n) const {
         shared::Words ow{words.data(), words.size()};

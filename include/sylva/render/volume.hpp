@@ -80,6 +80,10 @@ struct VolumeRenderParams {
     /// threads at once. On Vulkan the hook is a GLSL function of your shader (sylva_tf_user,
     /// sylva/shared/tf.h; vk::render_dvr_vulkan with your kernel).
     std::function<vec4(float)> tf_hook;
+    /// TfKind::Hook, optional: true when the hook may give some density in [lo, hi] an opacity
+    /// above 0 (answer true when unsure). The octree's empty-node and octant tests read it, as
+    /// a table of tf_skip_entries(p) entries (tf_opacity_prefix); without it a hook skips nothing.
+    std::function<bool(float lo, float hi)> tf_hook_visible;
     /// Opacity correction (parameter word 37, sylva/shared/dvr_classify.h): Power (default)
     /// 1 - (1 - alpha)^(l / unit) per segment of length l; None: alpha per sample as it is.
     OpacityCorrection opacity = OpacityCorrection::Power;
@@ -303,6 +307,14 @@ inline std::uint32_t tf_entries(const VolumeRenderParams& p) {
     return static_cast<std::uint32_t>(p.tf.size());
 }
 
+/// Entries of the opacity table the octree's skipping reads (parameter word 43,
+/// render/octree_volume.hpp: tf_opacity_prefix): the TF's own, or for a hook with
+/// tf_hook_visible a table of kHookSkipEntries densities.
+inline constexpr std::uint32_t kHookSkipEntries = 1024;
+inline std::uint32_t tf_skip_entries(const VolumeRenderParams& p) {
+    return (p.tf_kind == TfKind::Hook && p.tf_hook_visible) ? kHookSkipEntries : tf_entries(p);
+}
+
 /// The transfer function as the shared code reads it (buffer `tf`, sylva/shared/tf.h): the
 /// table's words (RGBA8 words, or the float table's bits) and, for the hook, the callable.
 struct TfWords {
@@ -350,6 +362,7 @@ inline std::vector<std::uint32_t> pack_volume_params(const VolumeRenderParams& p
     w[35] = static_cast<std::uint32_t>(p.rays.source);
     w[36] = static_cast<std::uint32_t>(p.tf_kind);
     w[37] = static_cast<std::uint32_t>(p.opacity);
+    w[43] = tf_skip_entries(p);
     return w;
 }
 

@@ -37,7 +37,9 @@
 //   40     grid voxel format: SYLVA_GRID_* (float32, uint8, uint16; sparse 8^3 bricks of uint8, uint16)
 //   41     value offset lo (float bits): density = (raw - lo) / (hi - lo) for integer formats
 //   42     value span hi - lo (float bits, > 0; the division is exact as written, v / max)
-//   43-47  reserved, 0
+//   43     entries of the octree's opacity prefix table (sylva/shared/octree_dvr.h; the TF's
+//          own entries, or a hook's sampled visibility: render/octree_volume.hpp); 0: word 27
+//   44-47  reserved, 0
 #ifndef SYLVA_SHARED_DVR_COMMON_H
 #define SYLVA_SHARED_DVR_COMMON_H
 
@@ -98,6 +100,7 @@ struct SylvaDvrParams {
     uint grid_format;
     float value_lo;
     float value_span;
+    uint skip_entries;
 };
 
 SYLVA_FN float sylva_param_f(SYLVA_BUF(params), uint at) { return uintBitsToFloat(SYLVA_LOAD(params, at)); }
@@ -134,6 +137,8 @@ SYLVA_FN SylvaDvrParams sylva_dvr_params(SYLVA_BUF(params)) {
     p.grid_format = SYLVA_LOAD(params, 40u);
     p.value_lo = sylva_param_f(SYLVA_PASS_BUF(params), 41u);
     p.value_span = sylva_param_f(SYLVA_PASS_BUF(params), 42u);
+    p.skip_entries = SYLVA_LOAD(params, 43u);
+    if (p.skip_entries == 0u) p.skip_entries = p.tf_entries;
     return p;
 }
 

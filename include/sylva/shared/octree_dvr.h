@@ -28,8 +28,9 @@
 // unless the octant masks were made for that border (sylva_oct_dvr_mask).
 //
 // Buffers: `words` the index, `bricks` the bricks, `tf` the RGBA8 transfer function (tf.h),
-// `tfsum` its opacity prefix counts: entries + 1 words, word i = the number of entries before
-// entry i whose alpha is > 0 (sylva/render/octree_volume.hpp: tf_opacity_prefix).
+// `tfsum` its opacity prefix counts: entries + 1 words (entries: parameter word 43), word i =
+// the number of entries before entry i whose alpha is > 0 (sylva/render/octree_volume.hpp:
+// tf_opacity_prefix; for a TF hook, entries whose neighbourhood the hook may show).
 #ifndef SYLVA_SHARED_OCTREE_DVR_H
 #define SYLVA_SHARED_OCTREE_DVR_H
 
@@ -372,7 +373,7 @@ SYLVA_FN bool sylva_oct_dvr_visible(SYLVA_BUF(words), SYLVA_BUF(tfsum), SYLVA_IN
     uint state = sylva_oct_brick_state(sylva_oct_flags(SYLVA_PASS_BUF(words), node));
     if (state != SYLVA_OCT_BRICK_RESIDENT) return false;
     vec2 range = sylva_oct_sampled_range(SYLVA_PASS_BUF(words), h, p, node, level, c);
-    return !sylva_oct_tf_empty(SYLVA_PASS_BUF(tfsum), p.tf_entries, range.x, range.y);
+    return !sylva_oct_tf_empty(SYLVA_PASS_BUF(tfsum), p.skip_entries, range.x, range.y);
 }
 
 /// The octants of leaf `node` (level, c) to sample under p's border mode: its mask's bits, and
