@@ -101,7 +101,8 @@ inline shared::SylvaOctHeader octree_header(const OctreeView& o) {
 }
 
 /// The parameter block for an octree of header h read with border mode `border` (words 38-39;
-/// float32 bricks: the format and value-range words keep their defaults).
+/// the grid format and value-range words 40-42 keep their defaults: the bricks' format is the
+/// octree header's, sylva/shared/octree_layout.h).
 inline std::vector<std::uint32_t> pack_octree(const shared::SylvaOctHeader& h, GridBorder border, const VolumeRenderParams& p) {
     border.check();
     std::vector<std::uint32_t> w = pack_dvr(h.dims, h.spacing, p);
