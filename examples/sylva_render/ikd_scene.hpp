@@ -61,6 +61,11 @@ inline int run_ikd_volume(const Options& o, const sylva::volume::DensityGrid& g,
     p.isos = ikd_detail::surfaces(o);
     p.walker = o.index == "dda" ? IsoWalker::Dda : IsoWalker::Tree;
     p.alpha_stop = o.alpha_stop;
+    // --border zero: samples outside read 0 and surfaces close at the faces (the shell cells,
+    // shared/iso_shell.h); clamp: the grid's cells only, as Wald (a clamped outside would only
+    // extrude the faces' surfaces).
+    const GridBorder border = grid_border(o);
+    if (border.mode == BorderMode::Constant) p.border = border.value;
     IsoCounters n;
     Frame f;
     if (o.backend == "cpu") {

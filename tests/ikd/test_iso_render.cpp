@@ -402,3 +402,274 @@ TEST_CASE("iso rendering: the header reader checks a native grid's format, range
     render_iso_cpu(words, GridWords::native(other), p, pool, &n);
     CHECK(n.errors == 64);
 }
+
+namespace {
+
+/// The first hit of isovalue `iso` along (eye, dir) in the shell cells before the grid
+/// (sylva/shared/iso_shell.h), through the shared walker and cell intersection directly.
+bool first_shell_hit(const Scene& s, float border, vec3 eye, vec3 dir, float iso, float& th) {
+    shared::Words tw{s.words.data(), s.words.size()}, gw{s.gw.words.data(), s.gw.words.size()};
+    shared::SylvaShellIter sh;
+    shared::sylva_shell_begin(sh, shared::sylva_ikd_read_header(tw, tw.size, gw.size), eye, dir, 0.0f, 1e30f, vec4(iso), 1,
+                              border, 0x3Fu);
+    vec3 cmin;
+    float t0, t1;
+    while (shared::sylva_shell_next(sh, gw, cmin, t0, t1))
+        if (shared::sylva_iso_cell_hit(sh.corners_lo, sh.corners_hi, sh.org - cmin, sh.d, t0, t1, iso, th)) return true;
+    return false;
+}
+
+/// `g` padded by one layer of samples of value `b` on every face: the grid a constant border
+/// makes explicit.
+volume::DensityGrid padded(const volume::DensityGrid& g, float b) {
+    volume::Dims d{g.dims.x + 2, g.dims.y + 2, g.dims.z + 2};
+    volume::DensityGrid out{d, g.spacing, std::vector<float>(std::size_t{d.x} * d.y * d.z, b)};
+    for (std::uint32_t z = 0; z < g.dims.z; ++z)
+        for (std::uint32_t y = 0; y < g.dims.y; ++y)
+            for (std::uint32_t x = 0; x < g.dims.x; ++x)
+                out.values[volume::voxel_index(d, x + 1, y + 1, z + 1)] = g.at(x, y, z);
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("iso rendering: a constant border closes surfaces at the faces; a uniform grid's surface is its world box",
+          "[ikd][iso][border]") {
+    ThreadPool pool(2);
+    for (float inside : {1.0f, 0.0f}) {
+        const float border = 1.0f - inside;
+        volume::DensityGrid g{{9, 7, 11}, vec3(1.0f, 0.5f, 1.5f), std::vector<float>(9 * 7 * 11, inside)};
+        Scene s(g);
+        const vec3 top = vec3(g.dims) * g.spacing;  // the world box [0, top]: samples at (i + 0.5) spacing
+        INFO("inside " << inside << " border " << border);
+        // Without a border the grid's cells hold no crossing: nothing is drawn.
+        IsoRenderParams p = params_for(s, {{0.5f, vec4(1.0f)}}, 40, 30);
+        IsoCounters n;
+        render_iso_cpu(s.words, s.gw, p, pool, &n);
+        CHECK(n.hits == 0);
+        // With it, the density 0.5 lies half way between the face samples and the border's: on
+        // the world box. The hit t of rays from outside, exact to rounding.
+        float th = 0.0f;
+        REQUIRE(first_shell_hit(s, border, vec3(-3.0f, 1.7f, 5.1f), vec3(1.0f, 0.0f, 0.0f), 0.5f, th));
+        CHECK(th == Approx(3.0f).epsilon(1e-6));
+        REQUIRE(first_shell_hit(s, border, vec3(4.2f, 2.3f, top.z + 2.5f), vec3(0.0f, 0.0f, -1.0f), 0.5f, th));
+        CHECK(th == Approx(2.5f).epsilon(1e-6));
+        vec3 dir = glm::normalize(vec3(0.3f, 1.0f, 0.2f));
+        vec3 eye = vec3(4.0f, 0.0f, 7.0f) - 2.0f * dir;  // enters through the y = 0 face at t = 2
+        REQUIRE(first_shell_hit(s, border, eye, dir, 0.5f, th));
+        CHECK(th == Approx(2.0f).epsilon(1e-5));
+        // The whole frame, orthographic down -z: a pixel is opaque where its ray crosses the box's
+        // footprint, transparent elsewhere, and white (facing the z face) well inside it.
+        p.border = border;
+        p.rays.source = RaySource::Ortho;
+        p.width = 64;
+        p.height = 48;
+        vec3 c = 0.5f * top;
+        p.camera = CameraFrame{vec3(c.x, c.y, top.z + 5.0f), vec3(0.0f, 0.0f, -1.0f), vec3(8.0f, 0.0f, 0.0f),
+                               vec3(0.0f, 6.0f, 0.0f)};
+        Frame f = render_iso_cpu(s.words, s.gw, p, pool, &n);
+        CHECK(n.errors == 0);
+        std::size_t checked = 0;
+        for (std::uint32_t y = 0; y < p.height; ++y) {
+            for (std::uint32_t x = 0; x < p.width; ++x) {
+                float wx = c.x + ((x + 0.5f) / p.width * 2.0f - 1.0f) * 8.0f;
+                float wy = c.y + (1.0f - (y + 0.5f) / p.height * 2.0f) * 6.0f;
+                float edge = std::min(std::min(wx, top.x - wx), std::min(wy, top.y - wy));  // < 0 outside
+                // Within half a voxel of two faces the trilinear surface rounds the box's edge off.
+                float dx = std::min(wx, top.x - wx) / g.spacing.x, dy = std::min(wy, top.y - wy) / g.spacing.y;
+                bool rounded = dx < 0.5f && dy < 0.5f;
+                const vec4& px = f.rgba[std::size_t{y} * p.width + x];
+                INFO("pixel " << x << "," << y << " at " << wx << "," << wy);
+                if (edge < -1e-3f) CHECK(px.w == 0.0f);
+                if (edge > 1e-3f && !rounded) CHECK(px.w == 1.0f);
+                if (edge > 1.0f) CHECK(px.x == Approx(1.0f).epsilon(1e-5));
+                checked += std::fabs(edge) > 1e-3f ? 1u : 0u;
+            }
+        }
+        CHECK(checked > 3000);
+        // Semi-transparent: a ray through the box hits it twice, entering (the shell before the
+        // grid) and leaving (the shell after it); from inside the box, once.
+        p.isos = {{0.5f, vec4(1.0f, 1.0f, 1.0f, 0.5f)}};
+        std::vector<std::uint32_t> params = iso_params(p, s.words.size(), s.gw.words.size());
+        shared::Words pw{params.data(), params.size()}, tw{s.words.data(), s.words.size()},
+            gw{s.gw.words.data(), s.gw.words.size()};
+        shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
+        shared::SylvaIkdHeader hdr = shared::sylva_iso_read_header(tw, sp);
+        vec3 across = glm::normalize(vec3(1.0f, 0.2f, 0.3f));  // leaves through the x = top.x face
+        for (std::uint32_t walker : {SYLVA_ISO_WALK_TREE, SYLVA_ISO_WALK_DDA}) {
+            sp.walker = walker;
+            CHECK(shared::sylva_iso_trace(tw, gw, sp, hdr, vec3(-2.0f, 1.1f, 3.3f), across).hits == 2);
+            CHECK(shared::sylva_iso_trace(tw, gw, sp, hdr, vec3(4.5f, 1.1f, 3.3f), across).hits == 1);
+            CHECK(shared::sylva_iso_trace(tw, gw, sp, hdr, vec3(-2.0f, -1.0f, 3.3f), vec3(1.0f, 0.0f, 0.0f)).hits == 0);
+        }
+    }
+}
+
+TEST_CASE("iso rendering: with a constant border the tree, the DDA, packets and native grids agree bit for bit",
+          "[ikd][iso][border][packet][native]") {
+    ThreadPool pool(2);
+    volume::DensityGrid field = volume::marschner_lobb({33, 20, 27});  // surfaces cross every face
+    volume::Volume v8 = test::quantised(field, volume::ScalarType::U8, 0.0f, 255.0f);
+    volume::DensityGrid g = volume::normalize(v8);
+    Scene s(g);
+    GridWords native = GridWords::native(v8);
+    for (float border : {0.0f, 0.45f, 1.0f}) {
+        INFO("border " << border);
+        IsoRenderParams p = params_for(s, {{0.3f, vec4(0.2f, 0.6f, 0.9f, 0.35f)}, {0.6f, vec4(0.9f, 0.4f, 0.2f, 0.5f)}});
+        IsoCounters open, n;
+        render_iso_cpu(s.words, s.gw, p, pool, &open);
+        p.border = border;
+        Frame want = render_iso_cpu(s.words, s.gw, p, pool, &n);
+        CHECK(n.hits > open.hits + 200);  // the faces' surfaces
+        CHECK(n.errors == 0);
+        p.walker = IsoWalker::Dda;
+        IsoCounters nd;
+        CHECK(bits_of(render_iso_cpu(s.words, s.gw, p, pool, &nd)) == bits_of(want));
+        CHECK(nd.cells == n.cells);
+        CHECK(nd.hits == n.hits);
+        CHECK(bits_of(render_iso_cpu(s.words, native, p, pool)) == bits_of(want));
+        p.walker = IsoWalker::Tree;
+        for (PacketLanes lanes : {PacketLanes::Four, PacketLanes::Eight, PacketLanes::Sixteen}) {
+            IsoCounters np;
+            CHECK(bits_of(render_iso_cpu_packets(s.words, s.gw, p, pool, &np, lanes)) == bits_of(want));
+            CHECK(np.cells == n.cells);
+            CHECK(np.hits == n.hits);
+            CHECK(bits_of(render_iso_cpu_packets(s.words, native, p, pool, nullptr, lanes)) == bits_of(want));
+        }
+    }
+}
+
+TEST_CASE("iso rendering: a constant border gives the image of the grid padded with the border's samples",
+          "[ikd][iso][border]") {
+    ThreadPool pool(2);
+    struct Case {
+        volume::DensityGrid grid;
+        float border;
+    };
+    volume::DensityGrid stretched = volume::marschner_lobb({25, 25, 25});
+    stretched.spacing = vec3(0.7f, 1.3f, 0.45f);
+    for (Case c : {Case{volume::marschner_lobb({33, 20, 27}), 0.0f},
+                   Case{volume::radial_falloff({19, 7, 33}, vec3(9.5f, 3.0f, 16.5f), 15.0f, vec3(1.0f, 2.0f, 0.5f)), 0.0f},
+                   Case{volume::marschner_lobb({25, 25, 25}), 0.7f}, Case{stretched, 0.2f}}) {
+        INFO("dims " << c.grid.dims.x << "x" << c.grid.dims.y << "x" << c.grid.dims.z << " border " << c.border);
+        Scene s(c.grid);
+        // The reference: the padded grid's cells, no border, its sample (0, 0, 0) one spacing lower.
+        volume::DensityGrid big = padded(c.grid, c.border);
+        ikd::Tree t = ikd::build(big);
+        t.origin = -0.5f * big.spacing;
+        std::vector<std::uint32_t> ref_words = ikd::encode(t);
+        GridWords ref_grid = GridWords::from(big);
+        IsoRenderParams p = params_for(s, {{0.3f, vec4(0.2f, 0.6f, 0.9f, 0.35f)}, {0.6f, vec4(0.9f, 0.4f, 0.2f, 0.5f)},
+                                           {0.9f, vec4(1.0f)}}, 128, 96);
+        IsoCounters nr, nb;
+        Frame ref = render_iso_cpu(ref_words, ref_grid, p, pool, &nr);
+        p.border = c.border;
+        Frame got = render_iso_cpu(s.words, s.gw, p, pool, &nb);
+        // Equal but for rounding: the two map a ray into cell spaces one cell apart.
+        std::size_t differ = 0;
+        float worst = 0.0f;
+        for (std::size_t i = 0; i < ref.rgba.size(); ++i) {
+            float d = 0.0f;
+            for (int k = 0; k < 4; ++k) d = std::max(d, std::fabs(ref.rgba[i][k] - got.rgba[i][k]));
+            worst = std::max(worst, d);
+            differ += d > 1e-4f ? 1u : 0u;
+        }
+        INFO("hits " << nb.hits << " (padded " << nr.hits << "), pixels off by > 1e-4: " << differ << ", worst " << worst);
+        CHECK(nr.hits > 2000);
+        if (c.grid.spacing == vec3(1.0f)) {
+            // Unit cells: the two cell spaces differ by exactly 1 in float, so the same bits.
+            CHECK(bits_of(got) == bits_of(ref));
+            CHECK(nb.hits == nr.hits);
+        }
+        CHECK(differ <= ref.rgba.size() / 500);
+        CHECK(std::abs(static_cast<long>(nb.hits) - static_cast<long>(nr.hits)) <= static_cast<long>(nr.hits / 500));
+    }
+}
+
+TEST_CASE("iso rendering: a border value that is not finite is refused; a corrupted tree with a border draws nothing",
+          "[ikd][iso][border][errors]") {
+    ThreadPool pool(2);
+    Scene s(volume::marschner_lobb({21, 21, 21}));
+    IsoRenderParams p = params_for(s, {{0.5f, vec4(1.0f)}}, 32, 24);
+    p.border = std::nanf("");
+    CHECK_THROWS_WITH(render_iso_cpu(s.words, s.gw, p, pool), Contains("border value is not finite"));
+    p.border = std::numeric_limits<float>::infinity();
+    CHECK_THROWS_WITH(render_iso_cpu_packets(s.words, s.gw, p, pool), Contains("border value is not finite"));
+    p.border = 0.0f;
+    std::vector<std::uint32_t> bad = s.words;
+    bad[0] = 0;
+    IsoCounters n;
+    Frame f = render_iso_cpu(bad, s.gw, p, pool, &n);
+    CHECK(n.errors == std::uint64_t{32} * 24);
+    CHECK(n.hits == 0);
+    for (const vec4& c : f.rgba) CHECK(c.w == 0.0f);
+}
+
+TEST_CASE("iso rendering: a constant border walks only the faces whose densities reach an isovalue", "[ikd][iso][border]") {
+    ThreadPool pool(2);
+    // A ramp along x: face -x reads 0, face +x reads 1, the four others 0 .. 1.
+    const std::uint32_t n = 17;
+    volume::DensityGrid ramp{{n, 9, 6}, vec3(0.5f, 1.0f, 1.0f), std::vector<float>(n * 9 * 6)};
+    for (std::uint32_t z = 0; z < 6; ++z)
+        for (std::uint32_t y = 0; y < 9; ++y)
+            for (std::uint32_t x = 0; x < n; ++x) ramp.values[volume::voxel_index(ramp.dims, x, y, z)] = float(x) / float(n - 1);
+    Scene s(ramp);
+    IsoFaceRanges r = iso_face_ranges(s.words, s.gw);
+    CHECK(r.lo[0] == 0.0f);
+    CHECK(r.hi[0] == 0.0f);
+    CHECK(r.lo[1] == 1.0f);
+    CHECK(r.hi[1] == 1.0f);
+    for (int f = 2; f < 6; ++f) {
+        CHECK(r.lo[f] == 0.0f);
+        CHECK(r.hi[f] == 1.0f);
+    }
+    IsoRenderParams p = params_for(s, {{0.3f, vec4(1.0f, 1.0f, 1.0f, 0.5f)}}, 64, 48);
+    p.border = 0.0f;
+    CHECK(iso_border_faces(r, p) == 0x3Eu);  // all but -x: 0 there and outside
+    p.border = 1.0f;
+    CHECK(iso_border_faces(r, p) == 0x3Du);  // all but +x
+    p.isos = {{0.3f, vec4(1.0f)}, {1.0f, vec4(1.0f)}};
+    CHECK(iso_border_faces(r, p) == 0x3Fu);  // 1.0 lies in +x's [1, 1]
+    p.border.reset();
+    CHECK(iso_border_faces(r, p) == 0u);
+    // Skipping the faces' cells changes no pixel; a grid whose faces cannot reach the isovalue
+    // walks no shell at all: the border's image and steps are those without a border.
+    for (float border : {0.0f, 1.0f}) {
+        p.isos = {{0.3f, vec4(1.0f, 1.0f, 1.0f, 0.5f)}};
+        p.border = border;
+        std::uint32_t faces = iso_border_faces(iso_face_ranges(s.words, s.gw), p);
+        std::vector<std::uint32_t> all = iso_params(p, s.words.size(), s.gw.words.size()),
+                                   some = iso_params(p, s.words.size(), s.gw.words.size(), {}, faces);
+        shared::Words tw{s.words.data(), s.words.size()}, gw{s.gw.words.data(), s.gw.words.size()};
+        shared::SylvaIsoParams sa = shared::sylva_iso_read_params(shared::Words{all.data(), all.size()});
+        shared::SylvaIsoParams ss = shared::sylva_iso_read_params(shared::Words{some.data(), some.size()});
+        shared::SylvaIkdHeader hdr = shared::sylva_iso_read_header(tw, sa);
+        std::uint64_t steps_all = 0, steps_some = 0, hits = 0;
+        for (std::uint32_t y = 0; y < p.height; ++y)
+            for (std::uint32_t x = 0; x < p.width; ++x) {
+                shared::SylvaIsoRay a = shared::sylva_iso_pixel(tw, gw, sa, hdr, x, y);
+                shared::SylvaIsoRay b = shared::sylva_iso_pixel(tw, gw, ss, hdr, x, y);
+                CHECK(std::bit_cast<std::uint32_t>(a.rgba.x) == std::bit_cast<std::uint32_t>(b.rgba.x));
+                CHECK(std::bit_cast<std::uint32_t>(a.rgba.w) == std::bit_cast<std::uint32_t>(b.rgba.w));
+                CHECK(a.hits == b.hits);
+                steps_all += a.steps;
+                steps_some += b.steps;
+                hits += a.hits;
+            }
+        CHECK(hits > 500);
+        CHECK(steps_some < steps_all);  // the walk leaves the faces out
+    }
+    volume::DensityGrid ball = volume::radial_falloff({24, 20, 28}, vec3(12.0f, 10.0f, 14.0f), 10.0f, vec3(1.0f));
+    Scene b(ball);
+    p = params_for(b, {{0.3f, vec4(0.9f)}});
+    IsoCounters open, closed;
+    Frame want = render_iso_cpu(b.words, b.gw, p, pool, &open);
+    p.border = 0.0f;
+    CHECK(iso_border_faces(iso_face_ranges(b.words, b.gw), p) == 0u);
+    Frame got = render_iso_cpu_packets(b.words, b.gw, p, pool, &closed);
+    IsoCounters single;
+    CHECK(bits_of(render_iso_cpu(b.words, b.gw, p, pool, &single)) == bits_of(want));
+    CHECK(bits_of(got) == bits_of(want));
+    CHECK(single.steps == open.steps);
+    CHECK(open.hits > 500);
+}

@@ -19,6 +19,7 @@
 #include <sylva/shared/ikd_iter.h>
 #include <sylva/shared/cell_dda.h>
 #include <sylva/shared/iso_cell.h>
+#include <sylva/shared/iso_shell.h>
 #include <sylva/shared/iso_render.h>
 #include <sylva/shared/octree_layout.h>
 #include <sylva/shared/octree_iter.h>

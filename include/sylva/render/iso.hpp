@@ -12,11 +12,15 @@
 #ifndef SYLVA_RENDER_ISO_HPP
 #define SYLVA_RENDER_ISO_HPP
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -58,6 +62,14 @@ struct IsoRenderParams {
     float alpha_stop = 0.99f;  ///< a ray ends once its opacity reaches this
     float ambient = 0.25f;
     float diffuse = 0.75f;
+    /// What lies outside the grid (parameter words 33-34). Empty (the default): nothing, the
+    /// grid's cells only, as Wald's tree holds them: a surface that reaches a face stays open
+    /// there. A value: samples outside the grid read this normalised density (0 is NanoVDB's
+    /// background and VTK's constant border), so the cells between the faces and those samples
+    /// are walked too (sylva/shared/iso_shell.h) and surfaces close at the faces. The grid's own
+    /// GridWords::sampling.border is the DVR samplers' and is not read here: a clamped border
+    /// would extrude the face's surfaces to infinity.
+    std::optional<float> border;
 };
 
 /// Totals over a frame (Wald's Table I and II counts): traversal steps, candidate cells
@@ -81,11 +93,13 @@ inline void check_iso_grid(const GridWords& grid) {
 }
 
 /// The shared parameter block of `p` for a tree of `tree_words` and a grid of `grid_words`
-/// words in format and range `sampling` (layout: sylva/shared/iso_render.h). Throws
+/// words in format and range `sampling` (layout: sylva/shared/iso_render.h); with a border,
+/// `border_faces` are the faces whose shell cells are walked (iso_border_faces; all by
+/// default, which is always correct). Throws
 /// sylva::Error for 0 or more than 4 surfaces, a value or colour that is not finite, an empty
-/// image, a sparse or unknown format.
+/// image, a sparse or unknown format, a border value that is not finite.
 inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size_t tree_words, std::size_t grid_words,
-                                             const GridSampling& sampling = {}) {
+                                             const GridSampling& sampling = {}, std::uint32_t border_faces = 0x3Fu) {
     if (p.isos.empty() || p.isos.size() > 4)
         throw Error("render: " + std::to_string(p.isos.size()) + " isovalues; 1 to 4 can be rendered at once");
     if (p.width == 0 || p.height == 0) throw Error("render: empty image");
@@ -119,7 +133,71 @@ inline std::vector<std::uint32_t> iso_params(const IsoRenderParams& p, std::size
     w[30] = static_cast<std::uint32_t>(sampling.format);
     w[31] = std::bit_cast<std::uint32_t>(sampling.format == GridFormat::F32 ? 0.0f : sampling.value_lo);
     w[32] = std::bit_cast<std::uint32_t>(sampling.format == GridFormat::F32 ? 1.0f : sampling.value_span);
+    if (p.border) {
+        if (!std::isfinite(*p.border)) throw Error("render: the isosurface border value is not finite");
+        w[33] = SYLVA_ISO_BORDER_CONSTANT;
+        w[34] = std::bit_cast<std::uint32_t>(*p.border);
+        w[35] = border_faces & 0x3Fu;
+    }
     return w;
+}
+
+/// [min, max] of the normalised densities on each face of a grid: face 2a holds the samples with
+/// index 0 on axis a, face 2a + 1 those with the last index (order -x, +x, -y, +y, -z, +z).
+struct IsoFaceRanges {
+    std::array<float, 6> lo{}, hi{};
+};
+
+/// The face ranges of `grid` (the grid the encoded tree `words` was built over), read as the
+/// tracers read it (sylva_shell_sample). A header the reader refuses gives [-inf, +inf] for
+/// every face (all walked; the tracers then report the error).
+inline IsoFaceRanges iso_face_ranges(std::span<const std::uint32_t> words, const GridWords& grid) {
+    IsoFaceRanges r;
+    const float inf = std::numeric_limits<float>::infinity();
+    r.lo.fill(-inf);
+    r.hi.fill(inf);
+    shared::Words tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
+    const GridSampling& gs = grid.sampling;
+    const bool f32 = gs.format == GridFormat::F32;
+    shared::SylvaIkdHeader h = shared::sylva_ikd_read_header_grid(
+        tw, static_cast<std::uint32_t>(std::min<std::size_t>(words.size(), 0xFFFFFFFFu)),
+        static_cast<std::uint32_t>(std::min<std::size_t>(grid.words.size(), 0xFFFFFFFFu)),
+        static_cast<std::uint32_t>(gs.format), f32 ? 0.0f : gs.value_lo, f32 ? 1.0f : gs.value_span);
+    if (h.valid == 0u) return r;
+    const std::array<std::int32_t, 3> n{static_cast<std::int32_t>(h.cells.x), static_cast<std::int32_t>(h.cells.y),
+                                        static_cast<std::int32_t>(h.cells.z)};  // the last sample index
+    for (int a = 0; a < 3; ++a) {
+        const int b = (a + 1) % 3, c = (a + 2) % 3;
+        for (int side = 0; side < 2; ++side) {
+            float lo = inf, hi = -inf;
+            glm::ivec3 v(0);
+            v[a] = side == 0 ? 0 : n[a];
+            for (v[c] = 0; v[c] <= n[c]; ++v[c])
+                for (v[b] = 0; v[b] <= n[b]; ++v[b]) {
+                    float d = shared::sylva_shell_sample(gw, h, v, 0.0f);
+                    lo = std::min(lo, d);
+                    hi = std::max(hi, d);
+                }
+            r.lo[2 * a + side] = lo;
+            r.hi[2 * a + side] = hi;
+        }
+    }
+    return r;
+}
+
+/// The faces (bits of parameter word 35) whose densities, together with p's border value, span
+/// one of p's isovalues: the shell cells beside the others cannot hold a surface (iso_shell.h).
+/// 0 without a border.
+inline std::uint32_t iso_border_faces(const IsoFaceRanges& r, const IsoRenderParams& p) {
+    if (!p.border || p.isos.empty() || p.isos.size() > 4) return p.border ? 0x3Fu : 0u;
+    vec4 isos(0.0f);
+    for (std::size_t k = 0; k < p.isos.size(); ++k) isos[static_cast<int>(k)] = p.isos[k].value;
+    std::uint32_t bits = 0;
+    for (std::uint32_t f = 0; f < 6; ++f) {
+        float lo = std::min(r.lo[f], *p.border), hi = std::max(r.hi[f], *p.border);
+        if (shared::sylva_ikd_holds(isos, static_cast<std::uint32_t>(p.isos.size()), lo, hi)) bits |= 1u << f;
+    }
+    return bits;
 }
 
 namespace detail {
@@ -180,7 +258,8 @@ template <Executor X>
 Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p, X& exec,
                      IsoCounters* counters = nullptr) {
     check_iso_grid(grid);
-    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling);
+    std::uint32_t faces = p.border ? iso_border_faces(iso_face_ranges(words, grid), p) : 0u;  // once a frame
+    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling, faces);
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
     shared::SylvaIkdHeader hdr = shared::sylva_iso_read_header(tw, sp);  // once a frame
@@ -291,13 +370,34 @@ void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& 
         }
         return;
     }
-    ikd::BasicPacketIter<L> it({tw.data, tw.size}, {gw.data, gw.size}, hdr, pk, sp.isos, sp.iso_count, codes, levels);
+    // A constant border: each lane walks the shell cells before the grid alone (as the single
+    // path does), the packet then walks the grid, and each lane the shell after it.
+    const bool shell = sp.border_mode == SYLVA_ISO_BORDER_CONSTANT && sp.border_faces != 0u;
     std::array<vec4, L> rgba{};
-    std::array<vec3, L> org{}, d{};
     std::array<std::uint32_t, L> hits{};
+    std::array<shared::SylvaShellIter, L> shells;  // set by sylva_shell_begin, read only with a border
+    auto shell_phase = [&](int k) {
+        shared::SylvaIsoRay r;
+        r.rgba = rgba[k];
+        r.cells = 0u;
+        r.hits = 0u;
+        shared::sylva_iso_shell_phase(r, shells[k], gw, sp, pk.direction[k]);
+        rgba[k] = r.rgba;
+        hits[k] += r.hits;
+        n.cells += r.cells;
+    };
+    for (int k = 0; k < L && shell; ++k) {
+        if (!(pk.active >> k & 1u)) continue;
+        shared::sylva_shell_begin(shells[k], hdr, pk.origin[k], pk.direction[k], 0.0f, shared::sylva_inf(), sp.isos,
+                                  sp.iso_count, sp.border, sp.border_faces);
+        shell_phase(k);
+    }
+    ikd::BasicPacketIter<L> it({tw.data, tw.size}, {gw.data, gw.size}, hdr, pk, sp.isos, sp.iso_count, codes, levels);
+    std::array<vec3, L> org{}, d{};
     for (int k = 0; k < L; ++k) {  // the cell-space ray (sylva_ray_to_grid's, as the single path)
         org[k] = it.lane_origin(k);
         d[k] = pk.direction[k] * hdr.inv_spacing;
+        if (shell && !(rgba[k].w < sp.alpha_stop)) it.clip(k, -shared::sylva_inf());  // opaque in the shell
     }
     ikd::BasicPacketCell<L> c;
     while (it.next(c)) {
@@ -313,8 +413,18 @@ void iso_tile(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams& 
     }
     for (int k = 0; k < L; ++k) {
         if (!(pk.active >> k & 1u)) continue;
+        std::uint32_t shell_steps = 0;
+        if (shell) {
+            if (rgba[k].w < sp.alpha_stop) {  // the shell after the grid, unless the ray is done
+                shared::sylva_shell_after(shells[k]);
+                shell_phase(k);
+            }
+            shell_steps = shells[k].steps;
+            n.lane_steps += shell_steps;  // a lane's shell walk is one active lane per step
+            n.steps += shell_steps;
+        }
         f.rgba[at[k]] = rgba[k];
-        f.steps[at[k]] = it.status() == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : it.steps();
+        f.steps[at[k]] = it.status() == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : it.steps() + shell_steps;
         n.hits += hits[k];
         n.errors += it.status() == SYLVA_ITER_ERROR ? 1u : 0u;
     }
@@ -351,7 +461,8 @@ void iso_tiles(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams&
 /// render_iso_cpu with pixel packets of `lanes` rays traversing the tree together (Wald 4.3;
 /// sylva/ikd/packet.hpp); p.walker must be IsoWalker::Tree. The image and the cell and hit
 /// counts equal render_iso_cpu's bit for bit; steps count packet steps (each pixel of a tile
-/// gets its packet's), Wald's Table I "SIMD" column. Throws sylva::Error for a `lanes` other
+/// gets its packet's, plus its own shell cells under a constant border), Wald's Table I "SIMD"
+/// column. Throws sylva::Error for a `lanes` other
 /// than 4, 8 or 16.
 template <Executor X>
 Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWords& grid, const IsoRenderParams& p,
@@ -360,7 +471,8 @@ Frame render_iso_cpu_packets(std::span<const std::uint32_t> words, const GridWor
     if (lanes != PacketLanes::Four && lanes != PacketLanes::Eight && lanes != PacketLanes::Sixteen)
         throw Error("render: packets hold 4, 8 or 16 rays, not " + std::to_string(static_cast<std::uint32_t>(lanes)));
     check_iso_grid(grid);
-    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling);
+    std::uint32_t faces = p.border ? iso_border_faces(iso_face_ranges(words, grid), p) : 0u;  // once a frame
+    std::vector<std::uint32_t> params = iso_params(p, words.size(), grid.words.size(), grid.sampling, faces);
     shared::Words pw{params.data(), params.size()}, tw{words.data(), words.size()}, gw{grid.words.data(), grid.words.size()};
     shared::SylvaIsoParams sp = shared::sylva_iso_read_params(pw);
     shared::SylvaIkdHeader hdr = shared::sylva_iso_read_header(tw, sp);  // once a frame

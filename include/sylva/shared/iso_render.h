@@ -26,7 +26,12 @@
 //   30     grid format: SYLVA_GRID_F32, _U8 or _U16 (sylva/shared/grid_sample.h)
 //   31-32  value range of an integer grid: raw value of density 0, raw values per unit (float
 //          bits; the float32 grid: 0 and 1)
-//   33-35  reserved, 0
+//   33     border: SYLVA_ISO_BORDER_CELLS (0: the grid's cells only, as Wald) or
+//          SYLVA_ISO_BORDER_CONSTANT (1: samples outside read word 34, and the shell of cells
+//          between the faces and them is walked too: sylva/shared/iso_shell.h)
+//   34     the border's normalised density (float bits; read when word 33 is 1)
+//   35     border faces: bit 2a / 2a + 1 set when the low / high face of axis a may hold an
+//          isovalue together with the border value (iso_shell.h's face culling; 0x3F: all)
 #ifndef SYLVA_SHARED_ISO_RENDER_H
 #define SYLVA_SHARED_ISO_RENDER_H
 
@@ -34,10 +39,13 @@
 #include "sylva/shared/cell_dda.h"
 #include "sylva/shared/ikd_iter.h"
 #include "sylva/shared/iso_cell.h"
+#include "sylva/shared/iso_shell.h"
 
 #define SYLVA_ISO_PARAM_WORDS 36u
 #define SYLVA_ISO_WALK_TREE 0u
 #define SYLVA_ISO_WALK_DDA 1u
+#define SYLVA_ISO_BORDER_CELLS 0u
+#define SYLVA_ISO_BORDER_CONSTANT 1u
 
 SYLVA_BEGIN_NAMESPACE
 
@@ -61,6 +69,9 @@ struct SylvaIsoParams {
     uint grid_format;
     float value_lo;
     float value_span;
+    uint border_mode;
+    float border;
+    uint border_faces;
 };
 
 SYLVA_FN vec3 sylva_iso_load3(SYLVA_BUF(params), uint at) {
@@ -91,6 +102,9 @@ SYLVA_FN SylvaIsoParams sylva_iso_read_params(SYLVA_BUF(params)) {
     p.grid_format = SYLVA_LOAD(params, 30u);
     p.value_lo = uintBitsToFloat(SYLVA_LOAD(params, 31u));
     p.value_span = uintBitsToFloat(SYLVA_LOAD(params, 32u));
+    p.border_mode = SYLVA_LOAD(params, 33u);
+    p.border = uintBitsToFloat(SYLVA_LOAD(params, 34u));
+    p.border_faces = SYLVA_LOAD(params, 35u);
     return p;
 }
 
@@ -129,11 +143,12 @@ SYLVA_FN vec4 sylva_iso_composite(vec4 acc, SylvaIsoParams p, uint k, vec4 lo, v
     return vec4(acc.x + wgt * rgb.x * shade, acc.y + wgt * rgb.y * shade, acc.z + wgt * rgb.z * shade, acc.w + wgt);
 }
 
-/// Intersects one candidate cell [t0, t1] with every isovalue and composites its hits in the
-/// order of t. `org` and `d` are the ray in cell space (d unnormalised, t the world parameter).
-SYLVA_FN vec4 sylva_iso_shade_cell(vec4 acc, SylvaIsoParams p, uvec3 cell, vec4 lo, vec4 hi, vec3 org, vec3 d,
-                                   vec3 inv_spacing, vec3 dir, float t0, float t1, SYLVA_INOUT(uint) hits) {
-    vec3 o = vec3(org.x - float(cell.x), org.y - float(cell.y), org.z - float(cell.z));
+/// Intersects one candidate cell [t0, t1] whose lowest corner is `cell_min` (cell space; a shell
+/// cell's components may be -1) with every isovalue and composites its hits in the order of t.
+/// `org` and `d` are the ray in cell space (d unnormalised, t the world parameter).
+SYLVA_FN vec4 sylva_iso_shade_cell_at(vec4 acc, SylvaIsoParams p, vec3 cell_min, vec4 lo, vec4 hi, vec3 org, vec3 d,
+                                      vec3 inv_spacing, vec3 dir, float t0, float t1, SYLVA_INOUT(uint) hits) {
+    vec3 o = vec3(org.x - cell_min.x, org.y - cell_min.y, org.z - cell_min.z);
     vec4 th = vec4(sylva_inf(), sylva_inf(), sylva_inf(), sylva_inf());
     for (uint k = 0u; k < 4u; k++) {
         float t = sylva_inf();
@@ -160,6 +175,28 @@ SYLVA_FN vec4 sylva_iso_shade_cell(vec4 acc, SylvaIsoParams p, uvec3 cell, vec4 
     return acc;
 }
 
+/// sylva_iso_shade_cell_at for cell `cell` of the grid (the tree's and the DDA's cells).
+SYLVA_FN vec4 sylva_iso_shade_cell(vec4 acc, SylvaIsoParams p, uvec3 cell, vec4 lo, vec4 hi, vec3 org, vec3 d,
+                                   vec3 inv_spacing, vec3 dir, float t0, float t1, SYLVA_INOUT(uint) hits) {
+    return sylva_iso_shade_cell_at(acc, p, vec3(float(cell.x), float(cell.y), float(cell.z)), lo, hi, org, d,
+                                   inv_spacing, dir, t0, t1, hits);
+}
+
+/// Composites the candidate cells of the shell walk's current phase (sylva/shared/iso_shell.h)
+/// into r until the ray's opacity reaches alpha_stop.
+SYLVA_FN void sylva_iso_shell_phase(SYLVA_INOUT(SylvaIsoRay) r, SYLVA_INOUT(SylvaShellIter) sh, SYLVA_BUF(grid),
+                                    SylvaIsoParams p, vec3 dir) {
+    vec3 cmin;
+    float t0;
+    float t1;
+    while (r.rgba.w < p.alpha_stop && sylva_shell_next(sh, SYLVA_PASS_BUF(grid), cmin, t0, t1)) {
+        if (!(t0 < t1)) continue;  // touched only, as the grid's cells
+        r.cells = r.cells + 1u;
+        r.rgba = sylva_iso_shade_cell_at(r.rgba, p, cmin, sh.corners_lo, sh.corners_hi, sh.org, sh.d, sh.hdr.inv_spacing,
+                                         dir, t0, t1, r.hits);
+    }
+}
+
 /// Traces the ray eye + t dir (dir unit length) through the candidate cells of the walker
 /// p.walker names (the tree, or the reference DDA); `hdr` is the tree's header
 /// (sylva_iso_read_header(words, p), read once for all rays).
@@ -180,6 +217,12 @@ SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIso
     vec3 s = tree ? it.hdr.inv_spacing : dda.hdr.inv_spacing;
     vec3 org = tree ? it.org : dda.org;
     vec3 d = vec3(dir.x * s.x, dir.y * s.y, dir.z * s.z);
+    bool shell = p.border_mode == SYLVA_ISO_BORDER_CONSTANT && p.border_faces != 0u;
+    SylvaShellIter sh;
+    if (shell) {  // the shell cells before the grid
+        sylva_shell_begin(sh, hdr, eye, dir, 0.0f, sylva_inf(), p.isos, p.iso_count, p.border, p.border_faces);
+        sylva_iso_shell_phase(r, sh, SYLVA_PASS_BUF(grid), p, dir);
+    }
     uvec3 cell;
     float t0;
     float t1;
@@ -193,6 +236,13 @@ SYLVA_FN SylvaIsoRay sylva_iso_trace(SYLVA_BUF(words), SYLVA_BUF(grid), SylvaIso
     }
     r.steps = tree ? it.steps : dda.steps;
     r.status = tree ? it.status : dda.status;
+    if (shell) {  // ... and after it, unless the ray is done
+        if (r.rgba.w < p.alpha_stop) {
+            sylva_shell_after(sh);
+            sylva_iso_shell_phase(r, sh, SYLVA_PASS_BUF(grid), p, dir);
+        }
+        r.steps = r.steps + sh.steps;
+    }
     return r;
 }
 

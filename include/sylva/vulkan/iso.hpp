@@ -28,14 +28,15 @@ class DeviceIso {
 public:
     DeviceIso(Context& ctx, std::span<const std::uint32_t> tree_words, const GridWords& grid)
         : tree_(ctx, checked(ctx, tree_words.size(), "tree") * 4), grid_(ctx, checked(ctx, dense_words(grid), "grid") * 4),
-          tree_words_(tree_words.size()), grid_words_(grid.words.size()), sampling_(grid.sampling) {
+          tree_words_(tree_words.size()), grid_words_(grid.words.size()), sampling_(grid.sampling),
+          faces_(iso_face_ranges(tree_words, grid)) {
         tree_.upload(tree_words);
         grid_.upload(grid.words);
     }
 
     /// Renders as render_iso_cpu does (p.walker picks the tree or the DDA).
     Frame render(Context& ctx, const IsoRenderParams& p, IsoCounters* counters = nullptr) {
-        std::vector<std::uint32_t> params = iso_params(p, tree_words_, grid_words_, sampling_);
+        std::vector<std::uint32_t> params = iso_params(p, tree_words_, grid_words_, sampling_, iso_border_faces(faces_, p));
         Buffer pb(ctx, params.size() * 4), out(ctx, std::size_t{p.width} * p.height * 8 * 4);
         pb.upload(params);
         if (!kernel_) {
@@ -81,6 +82,7 @@ private:
     Buffer tree_, grid_;
     std::size_t tree_words_, grid_words_;
     GridSampling sampling_;
+    IsoFaceRanges faces_;  ///< the grid's face ranges, read once: the border's face culling
     std::optional<Kernel> kernel_;
 };
 
