@@ -31,13 +31,19 @@ struct Case {
 /// Compares one host/GPU pair. exp2/log2 may differ by a few ulp between the host's libm and
 /// lavapipe, everything else is bit-exact, so colours agree within 5e-5 (measured <= 1.4e-5)
 /// and PSNR >= 100 dB, and the step counts exactly. Where those ulps flip early ray
-/// termination (dense TF) one sample more or less past alpha_stop = 0.99 weighs at most
+/// termination one sample more or less past alpha_stop = 0.99 weighs at most
 /// (1 - 0.99) * alpha', so there the tolerance is 1e-3 (measured 2.7e-4) and up to 0.5% of
-/// the pixels may take one step more or less (measured: none).
+/// the pixels may take one step more or less: only pixels that terminated early on one side
+/// (measured: none with a dense TF; 1 of the 16 early-terminated pixels of the marcher case
+/// once the blend order changed to NanoVDB's); every other pixel takes the same steps.
 void check_pair(const Case& c) {
     ImageDifference d = compare_frames(c.host, c.gpu);
-    std::size_t step_diff = 0;
-    for (std::size_t i = 0; i < c.host.steps.size(); ++i) step_diff += c.host.steps[i] != c.gpu.steps[i] ? 1 : 0;
+    std::size_t step_diff = 0, step_diff_open = 0;
+    for (std::size_t i = 0; i < c.host.steps.size(); ++i) {
+        if (c.host.steps[i] == c.gpu.steps[i]) continue;
+        ++step_diff;
+        step_diff_open += (c.host.rgba[i].a >= 0.99f || c.gpu.rgba[i].a >= 0.99f) ? 0 : 1;
+    }
     double visible = 0.0;
     std::size_t terminated = 0;
     for (const vec4& px : c.host.rgba) {
@@ -46,9 +52,10 @@ void check_pair(const Case& c) {
     }
     INFO(c.name << ": max diff " << d.max_abs << ", PSNR " << d.psnr << " dB, pixels with other steps " << step_diff
                 << ", summed alpha " << visible << ", pixels terminated early " << terminated);
-    CHECK(d.max_abs <= (c.dense ? 1e-3 : 5e-5));
+    CHECK(d.max_abs <= ((c.dense || step_diff > 0) ? 1e-3 : 5e-5));
     CHECK(d.psnr >= 100.0);
-    CHECK(step_diff <= (c.dense ? c.host.steps.size() / 200 : 0));
+    CHECK(step_diff_open == 0);
+    CHECK(step_diff <= c.host.steps.size() / 200);
     if (c.dense) CHECK(terminated > c.host.rgba.size() / 10);
     CHECK(visible > 100.0);
 }

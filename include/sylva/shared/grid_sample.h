@@ -158,15 +158,16 @@ SYLVA_FN float sylva_grid_index(float p, float s, uint n) {
     return sylva_grid_clamp(u, 0.0f, float((n > 0u) ? n - 1u : 0u));
 }
 
-/// The trilinear blend of eight corner densities c<x><y><z> with weights f: x first, then y,
-/// then z.
+/// The trilinear blend of eight corner densities c<x><y><z> with weights f: z first, then y,
+/// then x, each step a + (b - a) f: the order and arithmetic of NanoVDB's TrilinearSampler, so
+/// the same eight values and weights give NanoVDB's density bit for bit.
 SYLVA_FN_HOT float sylva_grid_blend(float c000, float c100, float c010, float c110, float c001, float c101, float c011,
                                 float c111, vec3 f) {
-    float c00 = sylva_grid_lerp(c000, c100, f.x);
-    float c10 = sylva_grid_lerp(c010, c110, f.x);
-    float c01 = sylva_grid_lerp(c001, c101, f.x);
-    float c11 = sylva_grid_lerp(c011, c111, f.x);
-    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+    float c00 = sylva_grid_lerp(c000, c001, f.z);
+    float c01 = sylva_grid_lerp(c010, c011, f.z);
+    float c10 = sylva_grid_lerp(c100, c101, f.z);
+    float c11 = sylva_grid_lerp(c110, c111, f.z);
+    return sylva_grid_lerp(sylva_grid_lerp(c00, c01, f.y), sylva_grid_lerp(c10, c11, f.y), f.x);
 }
 
 /// The trilinear blend of the eight voxels {i0, i1} per axis (inside the grid) of a sparse grid:
@@ -196,8 +197,8 @@ SYLVA_FN_HOT float sylva_grid_trilinear_sparse(SYLVA_BUF(grid), SYLVA_IN(SylvaGr
                             sylva_grid_voxel_of(SYLVA_PASS_BUF(grid), g, i1.x, i1.y, i1.z), f);
 }
 
-/// The trilinear blend of the eight voxels {i0, i1} per axis (inside the grid) with weights f:
-/// x first, then y, then z. Dense grids read their words directly (no per-voxel format test:
+/// The trilinear blend of the eight voxels {i0, i1} per axis (inside the grid) with weights f
+/// (sylva_grid_blend: z first, then y, then x). Dense grids read their words directly (no per-voxel format test:
 /// one cost the dense marcher 10-30 % of its speed), sparse grids through their brick table.
 SYLVA_FN_HOT float sylva_grid_trilinear(SYLVA_BUF(grid), SYLVA_IN(SylvaGridDesc) g, uvec3 i0, uvec3 i1, vec3 f) {
     if (g.format >= SYLVA_GRID_SPARSE_U8) return sylva_grid_trilinear_sparse(SYLVA_PASS_BUF(grid), g, i0, i1, f);

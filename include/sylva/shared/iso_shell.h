@@ -151,6 +151,13 @@ SYLVA_FN bool sylva_shell_cell_holds(SYLVA_BUF(grid), SYLVA_IN(SylvaIkdHeader) h
     return true;
 }
 
+/// floor(x) clamped to [-1, n] before the conversion (a far origin's rounding can put x anywhere;
+/// NaN gives -1), so no float-to-int conversion overflows.
+SYLVA_FN int sylva_shell_index(float x, uint n) {
+    float f = floor(x);
+    return (f >= float(n)) ? int(n) : ((f > -1.0f) ? int(f) : -1);
+}
+
 /// The part of [ta, tb] where the ray lies beside a face whose bit is set: the union of the
 /// intervals of those faces' slabs (the extended box cut to [-1, 0] or [C, C + 1] on the face's
 /// axis), as [x, y]; x > y when it misses them all.
@@ -180,8 +187,7 @@ SYLVA_FN void sylva_shell_place(SYLVA_INOUT(SylvaShellIter) it, float ta, float 
     float t = live.x;
     vec3 p = vec3(it.org.x + t * it.d.x, it.org.y + t * it.d.y, it.org.z + t * it.d.z);
     uvec3 c = it.hdr.cells;
-    it.cell = ivec3(clamp(int(floor(p.x)), -1, int(c.x)), clamp(int(floor(p.y)), -1, int(c.y)),
-                    clamp(int(floor(p.z)), -1, int(c.z)));
+    it.cell = ivec3(sylva_shell_index(p.x, c.x), sylva_shell_index(p.y, c.y), sylva_shell_index(p.z, c.z));
     it.t_limit = live.y;
     it.max_steps = it.steps + c.x + c.y + c.z + 9u;
     it.status = SYLVA_ITER_RUNNING;

@@ -136,15 +136,16 @@ SYLVA_FN_HOT float sylva_oct_brick_density_clamped(SYLVA_BUF(bricks), SYLVA_IN(S
                      sylva_oct_brick_local(i0.z, b.origin.z, b.side));
     uvec3 l1 = uvec3(sylva_oct_brick_local(i1.x, b.origin.x, b.side), sylva_oct_brick_local(i1.y, b.origin.y, b.side),
                      sylva_oct_brick_local(i1.z, b.origin.z, b.side));
+    // sylva_grid_blend's order: z, then y, then x.
     float c00 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l0.y, l0.z),
-                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l0.z), f.x);
-    float c10 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l0.z),
-                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l0.z), f.x);
-    float c01 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l0.y, l1.z),
-                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l1.z), f.x);
-    float c11 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l1.z),
-                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l1.z), f.x);
-    return sylva_grid_lerp(sylva_grid_lerp(c00, c10, f.y), sylva_grid_lerp(c01, c11, f.y), f.z);
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l0.y, l1.z), f.z);
+    float c01 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l0.x, l1.y, l1.z), f.z);
+    float c10 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l0.y, l1.z), f.z);
+    float c11 = sylva_grid_lerp(sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l0.z),
+                                sylva_oct_brick_at(SYLVA_PASS_BUF(bricks), b, l1.x, l1.y, l1.z), f.z);
+    return sylva_grid_lerp(sylva_grid_lerp(c00, c01, f.y), sylva_grid_lerp(c10, c11, f.y), f.x);
 }
 
 /// Voxel (x, y, z) of the brick's level: the border value outside the level's extent, else the

@@ -7,8 +7,9 @@
 //   u   = p / spacing - 0.5                 continuous voxel index (voxel centres at integers)
 //   u   = clamp(u, 0, dims - 1)             per axis: edge voxels repeat outside their centres
 //   i0  = floor(u), i1 = min(i0 + 1, dims - 1), f = u - i0
-//   lerp(a, b, f) = a + (b - a) * f, applied along x first (four times), then y (twice),
-//   then z: the trilinear blend of the 8 voxels {i0, i1}^3. (lerp, not GLSL's mix, which is
+//   lerp(a, b, f) = a + (b - a) * f, applied along z first (four times), then y (twice),
+//   then x: the trilinear blend of the 8 voxels {i0, i1}^3 (NanoVDB's TrilinearSampler's order
+//   and arithmetic; the renderers' sylva_grid_blend). (lerp, not GLSL's mix, which is
 //   a * (1 - f) + b * f: lerp returns a exactly when a == b, so constant regions stay exact.)
 // NaN or infinite positions are errors.
 //
@@ -54,13 +55,13 @@ inline AxisWeights axis_weights(float world, float spacing, std::uint32_t n) {
 
 inline float lerp(float a, float b, float f) { return a + (b - a) * f; }
 
-/// The trilinear blend of the 8 voxels named by the three axis lookups: x, then y, then z.
+/// The trilinear blend of the 8 voxels named by the three axis lookups: z, then y, then x.
 inline float trilinear(const DensityGrid& g, const AxisWeights& x, const AxisWeights& y, const AxisWeights& z) {
-    float c00 = lerp(g.at(x.i0, y.i0, z.i0), g.at(x.i1, y.i0, z.i0), x.f);
-    float c10 = lerp(g.at(x.i0, y.i1, z.i0), g.at(x.i1, y.i1, z.i0), x.f);
-    float c01 = lerp(g.at(x.i0, y.i0, z.i1), g.at(x.i1, y.i0, z.i1), x.f);
-    float c11 = lerp(g.at(x.i0, y.i1, z.i1), g.at(x.i1, y.i1, z.i1), x.f);
-    return lerp(lerp(c00, c10, y.f), lerp(c01, c11, y.f), z.f);
+    float c00 = lerp(g.at(x.i0, y.i0, z.i0), g.at(x.i0, y.i0, z.i1), z.f);
+    float c01 = lerp(g.at(x.i0, y.i1, z.i0), g.at(x.i0, y.i1, z.i1), z.f);
+    float c10 = lerp(g.at(x.i1, y.i0, z.i0), g.at(x.i1, y.i0, z.i1), z.f);
+    float c11 = lerp(g.at(x.i1, y.i1, z.i0), g.at(x.i1, y.i1, z.i1), z.f);
+    return lerp(lerp(c00, c01, y.f), lerp(c10, c11, y.f), x.f);
 }
 
 /// Throws unless the grid's values match its dimensions and its spacing is finite and positive.
