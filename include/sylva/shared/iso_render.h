@@ -9,6 +9,9 @@
 // here, so both give identical images, hit for hit. Inside a cell the hits of the isovalues are
 // composited in the order of t; a second crossing of the same isovalue inside one cell (a cubic
 // can cross three times) is not composited (it cannot change an opaque surface's image).
+// With a constant border (word 33) the cells between the grid's faces and the border's samples
+// (iso_shell.h) are composited too: those before the grid's box ahead of the walker's cells,
+// those after it behind them, so a surface that reaches a face closes there.
 //
 // Parameter block: a buffer `params` of SYLVA_ISO_PARAM_WORDS words (sylva/render/iso.hpp writes
 // it), word offset: meaning
