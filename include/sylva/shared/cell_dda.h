@@ -50,6 +50,31 @@ SYLVA_FN float sylva_dda_plane_t(float coord, float o, float r, uint par) {
     return (par != 0u) ? sylva_inf() : sylva_canon((coord - o) * r);
 }
 
+/// The DDA's step along each axis: +1 or -1 by the sign of the reciprocal direction, 0 where the
+/// ray is parallel to the axis.
+SYLVA_FN ivec3 sylva_dda_dir_step(vec3 rcp, uvec3 parallel) {
+    return ivec3((parallel.x != 0u) ? 0 : ((floatBitsToUint(rcp.x) >> 31u) != 0u ? -1 : 1),
+                 (parallel.y != 0u) ? 0 : ((floatBitsToUint(rcp.y) >> 31u) != 0u ? -1 : 1),
+                 (parallel.z != 0u) ? 0 : ((floatBitsToUint(rcp.z) >> 31u) != 0u ? -1 : 1));
+}
+
+/// The neighbour of cell c across its nearest exit plane (ties: x, then y, then z) for steps s,
+/// and the t of that plane (+inf when the ray is parallel to all three): the stepping rule of the
+/// DDA and of the border's shell walk (iso_shell.h).
+SYLVA_FN float sylva_dda_step(ivec3 c, ivec3 s, vec3 org, vec3 rcp, uvec3 par, SYLVA_OUT(ivec3) next) {
+    float tx = sylva_dda_plane_t(float(c.x + ((s.x > 0) ? 1 : 0)), org.x, rcp.x, par.x);
+    float ty = sylva_dda_plane_t(float(c.y + ((s.y > 0) ? 1 : 0)), org.y, rcp.y, par.y);
+    float tz = sylva_dda_plane_t(float(c.z + ((s.z > 0) ? 1 : 0)), org.z, rcp.z, par.z);
+    if (tx <= ty && tx <= tz) {
+        next = ivec3(c.x + s.x, c.y, c.z);
+    } else if (ty <= tz) {
+        next = ivec3(c.x, c.y + s.y, c.z);
+    } else {
+        next = ivec3(c.x, c.y, c.z + s.z);
+    }
+    return sylva_min(tx, sylva_min(ty, tz));
+}
+
 /// Starts a walk with a header sylva_ikd_read_header gave (as sylva_ikd_begin).
 SYLVA_FN void sylva_dda_begin(SYLVA_OUT(SylvaDdaIter) it, SylvaIkdHeader hdr, vec3 origin, vec3 direction, float t_min,
                               float t_max, vec4 isos, uint iso_count) {
@@ -90,9 +115,7 @@ SYLVA_FN void sylva_dda_begin(SYLVA_OUT(SylvaDdaIter) it, SylvaIkdHeader hdr, ve
     vec3 p = vec3(it.org.x + t.x * d.x, it.org.y + t.x * d.y, it.org.z + t.x * d.z);
     it.cell = ivec3(clamp(int(floor(p.x)), 0, int(c.x) - 1), clamp(int(floor(p.y)), 0, int(c.y) - 1),
                     clamp(int(floor(p.z)), 0, int(c.z) - 1));
-    it.dir_step = ivec3((it.parallel.x != 0u) ? 0 : ((floatBitsToUint(it.rcp.x) >> 31u) != 0u ? -1 : 1),
-                        (it.parallel.y != 0u) ? 0 : ((floatBitsToUint(it.rcp.y) >> 31u) != 0u ? -1 : 1),
-                        (it.parallel.z != 0u) ? 0 : ((floatBitsToUint(it.rcp.z) >> 31u) != 0u ? -1 : 1));
+    it.dir_step = sylva_dda_dir_step(it.rcp, it.parallel);
     it.max_steps = c.x + c.y + c.z + 3u;
 }
 
@@ -109,20 +132,10 @@ SYLVA_FN void sylva_dda_clip(SYLVA_INOUT(SylvaDdaIter) it, float t) { it.t_limit
 /// Moves to the neighbour across the nearest exit plane of the current cell; false when the
 /// walk leaves the grid.
 SYLVA_FN bool sylva_dda_advance(SYLVA_INOUT(SylvaDdaIter) it) {
-    ivec3 c = it.cell;
-    ivec3 s = it.dir_step;
-    float tx = sylva_dda_plane_t(float(c.x + ((s.x > 0) ? 1 : 0)), it.org.x, it.rcp.x, it.parallel.x);
-    float ty = sylva_dda_plane_t(float(c.y + ((s.y > 0) ? 1 : 0)), it.org.y, it.rcp.y, it.parallel.y);
-    float tz = sylva_dda_plane_t(float(c.z + ((s.z > 0) ? 1 : 0)), it.org.z, it.rcp.z, it.parallel.z);
-    if (tx <= ty && tx <= tz) {
-        it.cell = ivec3(c.x + s.x, c.y, c.z);
-    } else if (ty <= tz) {
-        it.cell = ivec3(c.x, c.y + s.y, c.z);
-    } else {
-        it.cell = ivec3(c.x, c.y, c.z + s.z);
-    }
-    if (sylva_min(tx, sylva_min(ty, tz)) > it.t_limit || sylva_min(tx, sylva_min(ty, tz)) >= sylva_inf()) return false;
-    ivec3 n = it.cell;
+    ivec3 n;
+    float t = sylva_dda_step(it.cell, it.dir_step, it.org, it.rcp, it.parallel, n);
+    it.cell = n;
+    if (t > it.t_limit || t >= sylva_inf()) return false;
     uvec3 g = it.hdr.cells;
     return n.x >= 0 && n.y >= 0 && n.z >= 0 && uint(n.x) < g.x && uint(n.y) < g.y && uint(n.z) < g.z;
 }

@@ -237,9 +237,7 @@ SYLVA_FN void sylva_shell_begin(SYLVA_OUT(SylvaShellIter) it, SylvaIkdHeader hdr
     bool grid_hit = tg.x <= tg.y;
     it.t_after = grid_hit ? tg.y : sylva_inf();
     it.t_end = te.y;
-    it.dir_step = ivec3((it.parallel.x != 0u) ? 0 : ((floatBitsToUint(it.rcp.x) >> 31u) != 0u ? -1 : 1),
-                        (it.parallel.y != 0u) ? 0 : ((floatBitsToUint(it.rcp.y) >> 31u) != 0u ? -1 : 1),
-                        (it.parallel.z != 0u) ? 0 : ((floatBitsToUint(it.rcp.z) >> 31u) != 0u ? -1 : 1));
+    it.dir_step = sylva_dda_dir_step(it.rcp, it.parallel);
     sylva_shell_place(it, te.x, grid_hit ? tg.x : te.y);
 }
 
@@ -252,24 +250,13 @@ SYLVA_FN void sylva_shell_after(SYLVA_INOUT(SylvaShellIter) it) {
     it.t_after = sylva_inf();
 }
 
-/// Moves to the neighbour across the nearest exit plane (as sylva_dda_advance); false when the
-/// walk leaves the extended cells or the phase's limit.
+/// Moves to the neighbour across the nearest exit plane (sylva_dda_step, the DDA's rule); false
+/// when the walk leaves the extended cells or the phase's limit.
 SYLVA_FN bool sylva_shell_advance(SYLVA_INOUT(SylvaShellIter) it) {
-    ivec3 c = it.cell;
-    ivec3 s = it.dir_step;
-    float tx = sylva_dda_plane_t(float(c.x + ((s.x > 0) ? 1 : 0)), it.org.x, it.rcp.x, it.parallel.x);
-    float ty = sylva_dda_plane_t(float(c.y + ((s.y > 0) ? 1 : 0)), it.org.y, it.rcp.y, it.parallel.y);
-    float tz = sylva_dda_plane_t(float(c.z + ((s.z > 0) ? 1 : 0)), it.org.z, it.rcp.z, it.parallel.z);
-    if (tx <= ty && tx <= tz) {
-        it.cell = ivec3(c.x + s.x, c.y, c.z);
-    } else if (ty <= tz) {
-        it.cell = ivec3(c.x, c.y + s.y, c.z);
-    } else {
-        it.cell = ivec3(c.x, c.y, c.z + s.z);
-    }
-    float t = sylva_min(tx, sylva_min(ty, tz));
+    ivec3 n;
+    float t = sylva_dda_step(it.cell, it.dir_step, it.org, it.rcp, it.parallel, n);
+    it.cell = n;
     if (t > it.t_limit || t >= sylva_inf()) return false;
-    ivec3 n = it.cell;
     uvec3 g = it.hdr.cells;
     return n.x >= -1 && n.y >= -1 && n.z >= -1 && n.x <= int(g.x) && n.y <= int(g.y) && n.z <= int(g.z);
 }
