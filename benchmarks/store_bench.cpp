@@ -9,7 +9,8 @@
 //             bricks/s, against a dd-like sequential write (write + fdatasync) of the same byte
 //             count in the same run; then Store::read_brick over every brick, cold and warm
 // Cases: aneurism (../shared/data), aneurismxK (upsampled by K, float32 slices), ml256, ml512 (procedural Marschner-Lobb, float32, generated
-// slice by slice), ml1024u16 (Marschner-Lobb quantised to uint16: the 2 GiB volume).
+// slice by slice), ml1024u16 (Marschner-Lobb quantised to uint16: the 2 GiB volume);
+// NAME-file: NAME's voxels written once to a raw file (untimed) and built from it, cold.
 // Medians of --runs runs. JSON records {case, impl, metric, value, unit} through bench::Report.
 #include <fcntl.h>
 #include <sys/resource.h>
@@ -130,7 +131,61 @@ private:
     store::MarschnerLobbSlices ml_;
 };
 
-Case make_case(const std::string& name) {
+/// Writes every slice of `src` to `path` as raw uint16 (round(d * 65535)) or float32 samples: the
+/// file a `-file` case builds from. Untimed: it stands for a volume already on disk.
+void write_raw(store::SliceSource& src, const std::filesystem::path& path, bool u16) {
+    const volume::Dims d = src.dims();
+    std::vector<float> slice(std::size_t{d.x} * d.y);
+    std::vector<std::uint16_t> q(u16 ? slice.size() : 0);
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) throw Error("cannot create " + path.string());
+    for (std::uint32_t z = 0; z < d.z; ++z) {
+        src.read(z, slice);
+        bool ok;
+        if (u16) {
+            for (std::size_t i = 0; i < slice.size(); ++i) q[i] = std::uint16_t(std::lround(slice[i] * 65535.0f));
+            ok = std::fwrite(q.data(), 2, q.size(), f) == q.size();
+        } else {
+            ok = std::fwrite(slice.data(), 4, slice.size(), f) == slice.size();
+        }
+        if (!ok) {
+            std::fclose(f);
+            throw Error("cannot write " + path.string() + " (disk full?)");
+        }
+    }
+    if (std::fclose(f) != 0) throw Error("cannot write " + path.string());
+}
+
+Case make_case(const std::string& name, const std::filesystem::path& dir);
+
+/// NAME-file: the volume of case NAME written once to a raw file in `dir` (untimed), and built
+/// from that file as `sylva-store build FILE` reads it (type range for uint16): the build
+/// without the cost of generating or resampling its voxels. The file's pages are dropped from
+/// the page cache before each build, so the build reads the disk.
+Case make_file_case(const std::string& name, const std::filesystem::path& dir) {
+    const std::string base = name.substr(0, name.size() - 5);
+    Case inner = make_case(base, dir);
+    auto src = inner.source();
+    const bool u16 = src->voxel_type() == "uint16";
+    const volume::Dims d = src->dims();
+    const std::string file_name = base + "_" + std::to_string(d.x) + "x" + std::to_string(d.y) + "x" +
+                                  std::to_string(d.z) + (u16 ? "_uint16.raw" : "_float32.raw");
+    std::filesystem::create_directories(dir);
+    const std::filesystem::path file = dir / file_name;
+    write_raw(*src, file, u16);
+    Case c;
+    c.name = name;
+    c.voxel_bytes = inner.voxel_bytes;
+    c.source = [file, u16]() -> std::unique_ptr<store::SliceSource> {
+        drop_cache(file);
+        return std::make_unique<store::RawFileSlices>(file, volume::parse_raw_name(file.filename().string()),
+                                                      u16 ? volume::ValueRange::of_type() : volume::ValueRange{});
+    };
+    return c;
+}
+
+Case make_case(const std::string& name, const std::filesystem::path& dir) {
+    if (name.size() > 5 && name.substr(name.size() - 5) == "-file") return make_file_case(name, dir);
     Case c;
     c.name = name;
     if (name == "aneurism" || name.rfind("aneurismx", 0) == 0) {
@@ -403,6 +458,7 @@ inline bool known_case(const std::string& v) {
         return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
     };
     std::string_view s(v);
+    if (s.size() > 5 && s.substr(s.size() - 5) == "-file") s.remove_suffix(5);  // NAME-file: NAME read from a raw file
     if (s == "aneurism") return true;
     if (s.rfind("aneurismx", 0) == 0) {
         std::string_view k = s.substr(9);
@@ -430,7 +486,9 @@ std::unique_ptr<CLI::App> make_app(Options& o, bool& quick) {
         "bytes, then every brick read cold and warm).\n"
         "Cases: aneurism (../shared/data), aneurismxK (upsampled by K, float32 slices), mlN\n"
         "(procedural Marschner-Lobb N^3, float32, generated slice by slice), mlNu16 (quantised to\n"
-        "uint16; ml1024u16 is the issue's 2 GiB volume). --quick: case ml96, one run, unless --cases or\n"
+        "uint16; ml1024u16 is the issue's 2 GiB volume); NAME-file: NAME's voxels written once to a raw\n"
+        "file (untimed), then built from that file with its pages dropped from the page cache before each\n"
+        "build. --quick: case ml96, one run, unless --cases or\n"
         "--runs are given. Exit status: 0 on success, 1 on errors (a missing volume), 2 on bad usage.");
     app->add_option("--cases", o.cases, "comma-separated cases (below)")
         ->type_name("LIST")
@@ -489,7 +547,7 @@ int main(int argc, char** argv) {
         ThreadPool pool(o.threads);
         bench::Report report;
         for (const std::string& name : o.cases) {
-            Case c = make_case(name);
+            Case c = make_case(name, o.dir);
             std::cerr << "sylva-store-bench: " << name << "\n";
             if (has(o.sections, "codecs") || has(o.sections, "backends")) {
                 auto bricks = case_bricks(c, o.dir, pool, 600);
