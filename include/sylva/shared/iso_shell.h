@@ -8,7 +8,8 @@
 // corner reads b, so no isovalue is crossed there (an isovalue equal to b is everywhere on the
 // surface outside the grid, as it is in a constant cell inside; neither is drawn).
 //
-// The walk is the DDA of cell_dda.h over the extended cells [-1, C]^3, the grid's own cells
+// The walk is the DDA of cell_dda.h (its stepping rule, sylva_dda_step) over the extended cells
+// [-1, C]^3, the grid's own cells
 // skipped (they are the tree's), in two phases: the cells before the grid's box, then, once the
 // caller has walked the grid, the cells after it (sylva_shell_after). A ray is a segment, so the
 // shell cells it crosses before entering the box [0, C]^3 all come before the grid's cells and
@@ -24,7 +25,8 @@
 // Each cell's interval is its slab test over [t_min, t_max] in the cell space of sylva_ray_to_grid
 // (the tree's and the DDA's arithmetic), and its corners (order of sylva_ikd_corners) read the
 // grid where they lie inside it (normalised as the tree reads them) and b elsewhere; candidates
-// are the cells whose corner [min, max] holds an isovalue (sylva_ikd_corners_hold). Steps are
+// are the cells whose corner [min, max] holds an isovalue (sylva_ikd_corners_hold; an integer
+// grid's corners compared raw first, as the tree's cells are). Steps are
 // bounded by the extended cells along the three axes, per phase.
 //
 // Face culling. A shell cell beside face F (index -1 or C on F's axis) has its in-grid corners on
