@@ -98,6 +98,7 @@ struct Options {
     std::filesystem::path dir = "store-bench-tmp";
     std::vector<std::string> sections{"codecs", "backends", "build"};
     std::vector<std::string> build_codecs{"zstd-1", "zstd-fast3", "lz4"};
+    std::string brick_format = "auto";  ///< build section: sylva-store build's --brick-format
     unsigned threads = 0;
 };
 
@@ -410,6 +411,8 @@ void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Rep
             store::StreamConfig cfg;
             cfg.codec = cs.codec;
             cfg.level = cs.level;
+            cfg.octree.format = o.brick_format == "auto" ? store::default_brick_format(src->voxel_type())
+                                                         : store::brick_format_from_name(o.brick_format);
             cfg.memory_bytes = std::uint64_t(2) << 30;
             auto t0 = Clock::now();
             double c0 = cpu_seconds();
@@ -430,7 +433,7 @@ void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Rep
             }
             std::filesystem::remove_all(path);
         }
-        const std::string impl = "build-" + cs.name();
+        const std::string impl = "build-" + cs.name() + "-" + store::brick_format_name(last.info.brick_format);
         const double n = double(last.info.node_count), mb = double(last.source_bytes) / 1e6;
         report.add(c.name, impl, "build_s", median(tb), "s");
         report.add(c.name, impl, "build_MB_per_s_voxels", mb / median(tb), "MB/s");
@@ -505,6 +508,11 @@ std::unique_ptr<CLI::App> make_app(Options& o, bool& quick) {
         ->capture_default_str()
         ->delimiter(',')
         ->check(CLI::IsMember({"codecs", "backends", "build"}));
+    app->add_option("--brick-format", o.brick_format,
+                    "build section: brick samples, as sylva-store build --brick-format (auto: unorm16 for uint8 / "
+                    "uint16 sources, float32 otherwise)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"auto", "float32", "unorm16", "unorm8"}));
     app->add_option("--build-codecs", o.build_codecs, "codecs of the build section")
         ->type_name("LIST")
         ->capture_default_str()

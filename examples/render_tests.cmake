@@ -424,6 +424,22 @@ if(SYLVA_HAVE_STORE)  # sylva-store is defined after this file is included
     JSON_MIN visible_pixels=1000 bricks_loaded=8 JSON_EQUAL bad_bricks=0 errors=0 bricks=73)
 endif()
 if(SYLVA_HAVE_STORE)
+  # A store of the uint8 aneurism: sylva-store's default brick format for integer volumes is
+  # unorm16 (tests/store: the same words as octree::build's unorm16 tree); drawn out of core.
+  set(_an ${_data}/aneurism_256x256x256_uint8.raw)
+  add_test(NAME examples.sylva_render.octree_ooc_store_unorm16_clean
+           COMMAND ${CMAKE_COMMAND} -E rm -rf ${_out}/aneurism.store)
+  add_test(NAME examples.sylva_render.octree_ooc_store_unorm16_build
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:sylva-store> "-DARGS=build|${_an}|-o|${_out}/aneurism.store|--quiet"
+                   -DNEED=${_an} "-DFILES=${_out}/aneurism.store/data.mdb" -P ${_check})
+  set_tests_properties(examples.sylva_render.octree_ooc_store_unorm16_clean PROPERTIES FIXTURES_SETUP sylva_ooc_u16_clean)
+  set_tests_properties(examples.sylva_render.octree_ooc_store_unorm16_build PROPERTIES FIXTURES_SETUP sylva_ooc_u16
+                       FIXTURES_REQUIRED sylva_ooc_u16_clean SKIP_RETURN_CODE 77)
+  sylva_render_test(octree_ooc_store_unorm16 FIXTURE sylva_ooc_u16 NEED ${_an}
+    ARGS --volume ${_out}/aneurism.store --index octree --frames 3 --size 64x48 --quiet
+         -o ${_out}/octree_ooc_store_unorm16.png --stats-json ${_out}/octree_ooc_store_unorm16.json
+    FILES ${_out}/octree_ooc_store_unorm16.png JSON ${_out}/octree_ooc_store_unorm16.json EXTRA_KEYS brick_format ${_ooc_keys}
+    JSON_EQUAL brick_format=unorm16 bad_bricks=0 errors=0 bricks=585 JSON_MIN visible_pixels=100)
   sylva_render_test(octree_ooc_store_brick FIXTURE sylva_ooc_store RC 2 ERR "--brick does not apply to a brick store"
     ARGS --volume ${_out}/ml64.store --index octree --brick 32 -o ${_out}/x.png)
 endif()

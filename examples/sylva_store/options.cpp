@@ -53,6 +53,11 @@ std::unique_ptr<CLI::App> make_app(Options& o, Raw& raw) {
         ->check(CLI::IsMember(std::set<std::uint32_t>{1, 2}));
     build->add_option("--compress", o.codec, "brick codec")->capture_default_str()
         ->check(CLI::IsMember(std::set<std::string>{"zstd", "lz4", "none"}));
+    build->add_option("--brick-format", o.brick_format,
+                      "brick samples: auto (unorm16 for uint8 / uint16 volumes, float32 otherwise), float32, "
+                      "unorm16 or unorm8 (densities rounded to 65535 / 255 steps)")
+        ->capture_default_str()
+        ->check(CLI::IsMember(std::set<std::string>{"auto", "float32", "unorm16", "unorm8"}));
     build->add_option("--level", o.level, "zstd's level: 1 to 19, or -1 to -5 for its fast modes")->capture_default_str()
         ->check(CLI::Range(-5, 19))
         ->check([](const std::string& v) {

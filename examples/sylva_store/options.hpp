@@ -18,6 +18,7 @@ struct Options {
     std::uint32_t brick = 32;            ///< --brick 16|32 (also 4, 8 for tests)
     std::uint32_t border = 2;            ///< --border 1|2
     std::string codec = "zstd";          ///< --compress zstd|lz4|none
+    std::string brick_format = "auto";   ///< --brick-format auto|float32|unorm16|unorm8
     int level = 1;                       ///< --level N (zstd 1..19, or -1..-5: its fast modes)
     std::uint64_t memory = std::uint64_t{1} << 30;  ///< --memory BYTES (K, M, G suffixes)
     bool resume = false;                 ///< --resume

@@ -7,6 +7,9 @@
 #                                      space needed; verify: incomplete; --resume finishes it
 #   cli_faults.sh SYLVA_STORE input    bad inputs: a clear message, exit 1, no store left behind
 #   cli_faults.sh SYLVA_STORE corrupt  verify lists a damaged brick's key and exits 1
+#   cli_faults.sh SYLVA_STORE format   --brick-format: auto gives unorm16 for a uint16 file and float32
+#                                      for Marschner-Lobb, half the raw brick bytes; an explicit format
+#                                      is kept; --resume refuses an interrupted store of another format
 set -uo pipefail
 tool=$1
 mode=$2
@@ -107,6 +110,32 @@ PY
   "$tool" verify "$work/s" >"$work/v.txt"; rc=$?
   ((rc == 1)) || { cat "$work/v.txt"; fail "verify passed a damaged brick"; }
   grep -q "CORRUPT: 1 bricks" "$work/v.txt" || { cat "$work/v.txt"; fail "the damaged brick is not listed"; }
+  ;;
+format)
+  python3 - "$work/v_24x20x18_uint16.raw" <<'PY' || fail "could not write the volume"
+import struct, sys
+n = 24 * 20 * 18
+open(sys.argv[1], 'wb').write(struct.pack('<%dH' % n, *[(i * 2654435761) % 60000 for i in range(n)]))
+PY
+  field() { "$tool" info "$1" | sed -n "s/^$2: //p;s/^$2=//p" | head -n 1; }
+  "$tool" build "$work/v_24x20x18_uint16.raw" --brick 8 --quiet -o "$work/u16" || fail "build uint16"
+  "$tool" build "$work/v_24x20x18_uint16.raw" --brick 8 --brick-format float32 --quiet -o "$work/f32" || fail "build float32"
+  "$tool" build "$work/v_24x20x18_uint16.raw" --brick 8 --brick-format unorm8 --quiet -o "$work/u8" || fail "build unorm8"
+  "$tool" build procedural:ml:20 --brick 8 --quiet -o "$work/ml" || fail "build ml"
+  [[ $(field "$work/u16" brick_format) == unorm16 ]] || { "$tool" info "$work/u16"; fail "auto is not unorm16 for uint16"; }
+  [[ $(field "$work/f32" brick_format) == float32 ]] || fail "--brick-format float32 not kept"
+  [[ $(field "$work/u8" brick_format) == unorm8 ]] || fail "--brick-format unorm8 not kept"
+  [[ $(field "$work/ml" brick_format) == float32 ]] || fail "auto is not float32 for Marschner-Lobb"
+  w16=$(field "$work/u16" brick_words) w32=$(field "$work/f32" brick_words) w8=$(field "$work/u8" brick_words)
+  ((w16 * 2 == w32 && w8 * 4 == w32)) || fail "brick words $w32 / $w16 / $w8 are not 1 : 1/2 : 1/4"
+  for s in u16 f32 u8 ml; do "$tool" verify "$work/$s" >/dev/null || fail "verify $s"; done
+  # An interrupted store (a full map) of float32 bricks is not finished as unorm16.
+  small=(build procedural:ml:40 --brick 8 --compress none --commit-bricks 4 --quiet)
+  "$tool" "${small[@]}" -o "$work/part" --map-size 1M 2>/dev/null; rc=$?
+  ((rc == 3)) || fail "the small map did not fill (exit $rc)"
+  "$tool" "${small[@]}" -o "$work/part" --resume --brick-format unorm16 2>"$work/err.txt" && fail "resume accepted another brick format"
+  grep -q "other settings" "$work/err.txt" || { cat "$work/err.txt"; fail "no message for resume with another format"; }
+  "$tool" "${small[@]}" -o "$work/part" --resume || fail "resume with the same format"
   ;;
 *) fail "unknown mode $mode" ;;
 esac

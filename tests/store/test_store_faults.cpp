@@ -4,8 +4,10 @@
 // incomplete; resume finishes it to the same content).
 #include <catch2/catch.hpp>
 
+#include <cstring>
 #include <filesystem>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <sylva/store/store.hpp>
@@ -37,6 +39,18 @@ void edit_value(const std::filesystem::path& path, const char* db, const std::st
     v = store::lmdb::val(bytes.data(), bytes.size());
     store::lmdb::check(mdb_put(txn.get(), dbi, &k, &v, 0), "test", "put");
     REQUIRE(txn.commit() == MDB_SUCCESS);
+}
+
+/// Replaces `from` by `to` in the store's build info text (the first occurrence, which must exist).
+void edit_build_info(const std::filesystem::path& path, const std::string& from, const std::string& to) {
+    edit_value(path, "meta", "build", [&](std::vector<std::byte>& b) {
+        std::string text(reinterpret_cast<const char*>(b.data()), b.size());
+        std::size_t at = text.find(from);
+        REQUIRE(at != std::string::npos);
+        text.replace(at, from.size(), to);
+        const auto* p = reinterpret_cast<const std::byte*>(text.data());
+        b.assign(p, p + text.size());
+    });
 }
 
 std::string key_of(unsigned k) { return std::string(reinterpret_cast<const char*>(&k), sizeof k); }
@@ -86,7 +100,8 @@ TEST_CASE("a store of a newer format version is refused with a message", "[store
         std::uint32_t v = store::kFormatVersion + 1;
         std::memcpy(b.data(), &v, 4);
     });
-    CHECK_THROWS_WITH(store::Store::open(dir / "s"), Catch::Contains("format version 2 is newer"));
+    CHECK_THROWS_WITH(store::Store::open(dir / "s"),
+                      Catch::Contains("format version " + std::to_string(store::kFormatVersion + 1) + " is newer"));
     CHECK_THROWS_WITH(store::Store::open(dir / "s", true), Catch::Contains("newer"));
 }
 
@@ -178,9 +193,39 @@ TEST_CASE("resume refuses other settings and finished stores", "[store]") {
     CHECK(std::filesystem::exists(dir / "user" / "notes.txt"));
 }
 
-TEST_CASE("the store refuses an octree of unorm bricks (it holds float32 bricks) and writes nothing", "[store][bad-input]") {
+TEST_CASE("a tree whose brick format differs from its build info is refused and nothing written", "[store][bad-input]") {
     octree::Tree t = octree::build(volume::marschner_lobb({40, 30, 20}), {8, 2, octree::BrickFormat::Unorm8});
     TempDir dir;
-    CHECK_THROWS_WITH(store::write_tree(t, dir / "s"), Catch::Contains("float32 bricks"));
+    store::BuildInfo info = store::build_info_of(t, "t", store::Codec::zstd, 1);
+    info.brick_format = octree::BrickFormat::Float32;
+    CHECK_THROWS_WITH(store::write_tree(t, dir / "s", info), Catch::Contains("the tree's bricks are unorm8"));
     CHECK_FALSE(std::filesystem::exists(dir / "s"));
+}
+
+TEST_CASE("a version-1 store (float32 bricks, no brick_format line) still reads", "[store]") {
+    TempDir dir;
+    octree::Tree t = tree();
+    store::write_tree(t, dir / "s");
+    edit_value(dir / "s", "meta", "format", [](std::vector<std::byte>& b) {
+        std::uint32_t v = 1;
+        std::memcpy(b.data(), &v, 4);
+    });
+    edit_build_info(dir / "s", "brick_format=float32\n", "");
+    store::Store s = store::Store::open(dir / "s");
+    CHECK(s.format_version() == 1u);
+    CHECK(s.build_info().brick_format == octree::BrickFormat::Float32);
+    std::vector<std::uint32_t> out(s.brick_words());
+    for (std::uint32_t k = 0; k < s.brick_count(); ++k) REQUIRE(s.read_brick(k, out) == octree::BrickStatus::ok);
+    CHECK(s.verify().ok());
+}
+
+TEST_CASE("build info whose brick format contradicts the index is refused", "[store]") {
+    TempDir dir;
+    // unorm16 bricks labelled float32: the index's format and brick word count disagree.
+    store::write_tree(octree::build(volume::marschner_lobb({40, 30, 20}), {8, 2, octree::BrickFormat::Unorm16}), dir / "a");
+    edit_build_info(dir / "a", "brick_format=unorm16", "brick_format=float32");
+    CHECK_THROWS_WITH(store::Store::open(dir / "a"), Catch::Contains("does not match the build info"));
+    store::write_tree(tree(), dir / "b");
+    edit_build_info(dir / "b", "brick_format=float32", "brick_format=unorm12");
+    CHECK_THROWS_WITH(store::Store::open(dir / "b"), Catch::Contains("bad brick_format"));
 }

@@ -36,14 +36,18 @@ void check_equal(const S& s, const octree::TreeBrickSource& ref) {
 }
 }  // namespace
 
-TEST_CASE("a stored in-core tree reads back word for word, every codec", "[store]") {
+TEST_CASE("a stored in-core tree reads back word for word, every codec and brick format", "[store]") {
     TempDir dir;
-    octree::TreeBrickSource ref(small_tree());
+    for (auto f : {octree::BrickFormat::Float32, octree::BrickFormat::Unorm16, octree::BrickFormat::Unorm8})
     for (store::Codec c : {store::Codec::none, store::Codec::lz4, store::Codec::zstd}) {
-        auto path = dir / (std::string("t-") + store::codec_name(c));
+        octree::TreeBrickSource ref(octree::build(volume::marschner_lobb({37, 21, 18}), {8, 2, f}));
+        INFO(store::brick_format_name(f) << ", " << store::codec_name(c));
+        auto path = dir / (std::string("t-") + store::codec_name(c) + "-" + store::brick_format_name(f));
         store::write_tree(ref.tree(), path, c, 3);
         store::Store s = store::Store::open(path);
         CHECK(s.complete());
+        CHECK(s.build_info().brick_format == f);
+        CHECK(s.brick_words() == ref.tree().brick_words());
         CHECK(s.brick_count() == ref.tree().nodes.size());
         check_equal(s, ref);
         std::vector<std::uint32_t> out(s.brick_words());

@@ -2,7 +2,7 @@
 // octree::encode give for the same volume: the index word for word, every brick bit for bit;
 // over odd, non-cubic, non-power-of-two sizes, uint8/uint16/float32 raw files, B = 16 and 32
 // (and 4, 8 for deep trees), borders 1 and 2, Marschner-Lobb generated slice by slice, a
-// resampled volume, and the aneurism of ../shared/data.
+// resampled volume, and the aneurism of ../shared/data; float32, unorm16 and unorm8 bricks.
 #include <catch2/catch.hpp>
 
 #include <bit>
@@ -48,10 +48,11 @@ void check_store_equals_in_core(const std::filesystem::path& path, const volume:
 }
 
 store::StreamResult stream(store::SliceSource& src, const std::filesystem::path& path, std::uint32_t b,
-                           std::uint32_t border, store::Codec codec = store::Codec::zstd) {
+                           std::uint32_t border, store::Codec codec = store::Codec::zstd,
+                           octree::BrickFormat format = octree::BrickFormat::Float32) {
     ThreadPool pool(2);
     store::StreamConfig cfg;
-    cfg.octree = {b, border};
+    cfg.octree = {b, border, format};
     cfg.codec = codec;
     cfg.batch_bricks = 5;  // several batches per row
     return store::build_store(src, "test", path, cfg, pool);
@@ -75,16 +76,18 @@ std::filesystem::path write_raw(const std::filesystem::path& dir, volume::Dims d
 }
 
 template <class T>
-void check_raw(volume::Dims d, std::uint32_t b, std::uint32_t border, const volume::ValueRange& range = {}) {
+void check_raw(volume::Dims d, std::uint32_t b, std::uint32_t border, const volume::ValueRange& range = {},
+               octree::BrickFormat format = octree::BrickFormat::Float32) {
     TempDir dir;
     auto file = write_raw<T>(dir.path(), d, d.x * 7 + d.y);
     store::RawFileSlices src(file, volume::parse_raw_name(file.filename().string()), range);
-    store::StreamResult r = stream(src, dir / "s", b, border);
+    store::StreamResult r = stream(src, dir / "s", b, border, store::Codec::zstd, format);
     CHECK(r.bricks_written == r.info.node_count);
+    CHECK(r.info.brick_format == format);
     volume::Volume v = volume::read_volume(file, std::nullopt, range);
     CHECK(src.range_lo() == v.range_lo);
     CHECK(src.range_hi() == v.range_hi);
-    check_store_equals_in_core(dir / "s", volume::normalize(v), {b, border});
+    check_store_equals_in_core(dir / "s", volume::normalize(v), {b, border, format});
 }
 
 }  // namespace
@@ -110,6 +113,62 @@ TEST_CASE("streamed raw files equal read_raw + normalize + build, every type", "
     check_raw<float>({31, 29, 35}, 8, 2);
     check_raw<std::uint16_t>({40, 33, 35}, 32, 2, volume::ValueRange::of_type());
     check_raw<std::uint8_t>({20, 21, 22}, 8, 1, volume::ValueRange::between(10.0f, 120.0f));
+}
+
+TEST_CASE("unorm16 and unorm8 bricks stream as octree::build rounds them, every type", "[store]") {
+    using F = octree::BrickFormat;
+    check_raw<std::uint16_t>({33, 17, 40}, 16, 1, {}, F::Unorm16);
+    check_raw<std::uint16_t>({40, 33, 35}, 32, 2, volume::ValueRange::of_type(), F::Unorm16);
+    check_raw<std::uint8_t>({45, 30, 19}, 16, 2, {}, F::Unorm16);
+    check_raw<std::uint8_t>({20, 21, 22}, 8, 1, volume::ValueRange::between(10.0f, 120.0f), F::Unorm8);
+    check_raw<float>({31, 29, 35}, 8, 2, {}, F::Unorm16);
+    for (F f : {F::Unorm16, F::Unorm8}) {
+        TempDir dir;
+        store::MarschnerLobbSlices src({37, 21, 18});
+        stream(src, dir / "s", 4, 2, store::Codec::lz4, f);
+        check_store_equals_in_core(dir / "s", volume::marschner_lobb({37, 21, 18}), {4, 2, f});
+    }
+}
+
+TEST_CASE("a uint16 volume over its type's range loses nothing in unorm16 bricks", "[store]") {
+    // Level 0's samples are the voxels themselves: q = v exactly, so the finest bricks hold the
+    // file's values; coarser levels are rounded averages (octree::build's, checked above).
+    TempDir dir;
+    auto file = write_raw<std::uint16_t>(dir.path(), {21, 19, 17}, 5);
+    store::RawFileSlices src(file, volume::parse_raw_name(file.filename().string()), volume::ValueRange::of_type());
+    stream(src, dir / "s", 8, 2, store::Codec::zstd, octree::BrickFormat::Unorm16);
+    std::vector<std::uint16_t> raw(21 * 19 * 17);
+    std::ifstream(file, std::ios::binary).read(reinterpret_cast<char*>(raw.data()), std::streamsize(raw.size() * 2));
+    store::Store s = store::Store::open(dir / "s");
+    octree::Tree t = octree::build(volume::normalize(volume::read_volume(file, std::nullopt, volume::ValueRange::of_type())),
+                                   {8, 2, octree::BrickFormat::Unorm16});
+    std::vector<std::uint32_t> words(s.brick_words());
+    std::size_t checked = 0, wrong = 0;
+    for (const octree::Node& n : t.nodes) {
+        if (n.level != t.levels - 1u) continue;
+        REQUIRE(s.read_brick(n.brick, words) == octree::BrickStatus::ok);
+        const std::uint32_t side = t.brick_side();
+        for (std::uint32_t z = 0; z < side; ++z)
+            for (std::uint32_t y = 0; y < side; ++y)
+                for (std::uint32_t x = 0; x < side; ++x) {
+                    glm::ivec3 v = glm::clamp(glm::ivec3(n.coord * t.brick_size) - 2 + glm::ivec3(x, y, z), glm::ivec3(0),
+                                              glm::ivec3(20, 18, 16));
+                    std::uint32_t i = x + side * (y + side * z);
+                    std::uint32_t q = (words[i / 2] >> ((i % 2) * 16)) & 0xFFFFu;
+                    wrong += q != raw[std::size_t(v.x) + 21u * (std::size_t(v.y) + 19u * std::size_t(v.z))];
+                    ++checked;
+                }
+    }
+    CHECK(checked > 21u * 19u * 17u);
+    CHECK(wrong == 0);
+}
+
+TEST_CASE("sylva-store's default brick format: unorm16 for integer volumes, float32 for float ones", "[store]") {
+    CHECK(store::default_brick_format("uint8") == octree::BrickFormat::Unorm16);
+    CHECK(store::default_brick_format("uint16") == octree::BrickFormat::Unorm16);
+    CHECK(store::default_brick_format("float32") == octree::BrickFormat::Float32);
+    CHECK(store::brick_format_from_name("unorm8") == octree::BrickFormat::Unorm8);
+    CHECK_THROWS_WITH(store::brick_format_from_name("half"), Catch::Contains("unknown brick format 'half'"));
 }
 
 TEST_CASE("every codec streams the same store", "[store]") {

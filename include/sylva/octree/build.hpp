@@ -274,9 +274,12 @@ inline std::uint32_t unorm_max(BrickFormat f) {
     return f == BrickFormat::Unorm16 ? 65535u : (f == BrickFormat::Unorm8 ? 255u : 0u);
 }
 
-/// Density d in [0, 1] rounded to the nearest step of `max` (v / max gives v back).
+/// Density d in [0, 1] rounded to the nearest step of `max` (v / max gives v back); d is
+/// clamped to [0, 1] and NaN reads 0. Rounds half away from zero, as std::lround: d * max is
+/// exact in double (24 by 16 bits) and so is + 0.5, so truncating the sum rounds the same.
 inline std::uint32_t quantise(float d, std::uint32_t max) {
-    return static_cast<std::uint32_t>(std::lround(double(std::clamp(d, 0.0f, 1.0f)) * double(max)));
+    const float c = d > 0.0f ? std::min(d, 1.0f) : 0.0f;
+    return static_cast<std::uint32_t>(double(c) * double(max) + 0.5);
 }
 
 /// The density a sample of d reads back in format f (sylva_oct_brick_value's arithmetic).

@@ -5,6 +5,7 @@
 //   "meta", text keys:
 //     "magic"        the bytes "sylva-brick-store"
 //     "format"       uint32, kFormatVersion when written; a reader refuses a larger one
+//                    (1: float32 bricks only, no brick_format line; 2: brick_format added)
 //     "build"        BuildInfo as "key=value" lines (what was built, from what, how)
 //     "index"        the octree's index words (sylva/octree/brick_source.hpp: layout
 //                    sylva/shared/octree_layout.h, brick state SYLVA_OCT_BRICK_HOST, word +12 of
@@ -28,13 +29,16 @@
 
 #include "sylva/core/error.hpp"
 #include "sylva/core/math.hpp"
+#include "sylva/octree/build.hpp"
 #include "sylva/store/codec.hpp"
 #include "sylva/volume/grid.hpp"
 
 namespace sylva::store {
 
-/// The format this code writes and the newest it reads.
-inline constexpr std::uint32_t kFormatVersion = 1;
+/// The format this code writes and the newest it reads. Version 2 added the bricks' sample
+/// format (BuildInfo::brick_format): a version-1 reader would take unorm16 words for floats, so
+/// it must refuse these stores; a version-1 store (no brick_format line) holds float32 bricks.
+inline constexpr std::uint32_t kFormatVersion = 2;
 /// The "magic" value.
 inline constexpr std::string_view kMagic = "sylva-brick-store";
 
@@ -54,11 +58,13 @@ struct BuildInfo {
     std::uint32_t node_count = 0;      ///< nodes = bricks (every node of the volume octree has one)
     Codec codec = Codec::zstd;
     int level = 1;                     ///< zstd level, -5 .. 19 (negative: zstd's fast modes; 0 for the others)
+    /// How the bricks hold samples (octree::BrickFormat; the index's word 5 bits 24-31 say the
+    /// same). Absent from version-1 stores, which hold float32.
+    octree::BrickFormat brick_format = octree::BrickFormat::Float32;
 
-    /// Words per brick, (B + 2 border)^3.
+    /// Words per brick: (B + 2 border)^3 samples in brick_format.
     [[nodiscard]] std::uint32_t brick_words() const {
-        std::uint32_t s = brick_size + 2u * border;
-        return s * s * s;
+        return shared::sylva_oct_brick_word_count(brick_size + 2u * border, static_cast<std::uint32_t>(brick_format));
     }
     friend bool operator==(const BuildInfo&, const BuildInfo&) = default;
 };
@@ -86,6 +92,18 @@ inline std::uint32_t parse_u32(std::string_view s, const char* key) {
 
 }  // namespace detail
 
+/// "float32", "unorm16", "unorm8".
+inline const char* brick_format_name(octree::BrickFormat f) {
+    return f == octree::BrickFormat::Unorm16 ? "unorm16" : (f == octree::BrickFormat::Unorm8 ? "unorm8" : "float32");
+}
+
+/// The brick format called `name`; throws sylva::Error listing the known ones.
+inline octree::BrickFormat brick_format_from_name(std::string_view name) {
+    for (auto f : {octree::BrickFormat::Float32, octree::BrickFormat::Unorm16, octree::BrickFormat::Unorm8})
+        if (name == brick_format_name(f)) return f;
+    throw Error("unknown brick format '" + std::string(name) + "' (known: float32, unorm16, unorm8)");
+}
+
 /// BuildInfo as "key=value" lines (the "build" key; `sylva-store info` prints them).
 inline std::string to_text(const BuildInfo& b) {
     using detail::float_text;
@@ -101,11 +119,13 @@ inline std::string to_text(const BuildInfo& b) {
       << "levels=" << b.levels << "\n"
       << "nodes=" << b.node_count << "\n"
       << "codec=" << codec_name(b.codec) << "\n"
-      << "level=" << b.level << "\n";
+      << "level=" << b.level << "\n"
+      << "brick_format=" << brick_format_name(b.brick_format) << "\n";
     return o.str();
 }
 
-/// Parses to_text's output; throws sylva::Error for a missing or malformed field.
+/// Parses to_text's output; throws sylva::Error for a missing or malformed field. brick_format
+/// may be absent (version-1 stores: float32).
 inline BuildInfo build_info_from_text(std::string_view text) {
     using namespace detail;
     BuildInfo b;
@@ -150,6 +170,12 @@ inline BuildInfo build_info_from_text(std::string_view text) {
             if (magnitude > 19u) throw Error("store: build info: level " + std::string(v) + " is outside -5 .. 19");
             b.level = negative ? -int(magnitude) : int(magnitude);
             seen |= 2048;
+        } else if (k == "brick_format") {
+            try {
+                b.brick_format = brick_format_from_name(v);
+            } catch (const Error&) {
+                throw Error("store: build info: bad brick_format");
+            }
         }
     }
     if (seen != 4095u) throw Error("store: build info lacks fields");

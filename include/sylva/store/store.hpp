@@ -194,7 +194,7 @@ inline void Store::read_meta() {
     std::memcpy(&want, sum.mv_data, 8);
     if (XXH3_64bits(index_.data(), v.mv_size) != want) throw Error(where() + ": the index fails its checksum");
     if (index_.size() < SYLVA_OCT_HEADER_WORDS || index_[6] != info_.node_count || index_[7] != info_.node_count ||
-        index_[8] != info_.brick_words())
+        index_[8] != info_.brick_words() || (index_[5] >> 24) != static_cast<std::uint32_t>(info_.brick_format))
         throw Error(where() + ": the index does not match the build info");
 }
 

@@ -86,7 +86,6 @@ namespace detail {
 /// The octree's nodes and neighbours without bricks (octree::build's, brick n = node n).
 inline octree::Tree skeleton(volume::Dims dims, vec3 spacing, const octree::Config& cfg) {
     octree::detail::check_config(cfg);
-    if (cfg.format != octree::BrickFormat::Float32) throw Error("store: the store holds float32 bricks (BrickFormat::Float32)");
     if (dims.x == 0 || dims.y == 0 || dims.z == 0 || dims.x > octree::kMaxDim || dims.y > octree::kMaxDim ||
         dims.z > octree::kMaxDim)
         throw Error("store: the volume is " + octree::detail::dims_text(dims) +
@@ -96,6 +95,7 @@ inline octree::Tree skeleton(volume::Dims dims, vec3 spacing, const octree::Conf
     t.spacing = spacing;
     t.brick_size = cfg.brick_size;
     t.border = cfg.border;
+    t.format = cfg.format;
     t.levels = octree::detail::level_count(dims, cfg.brick_size);
     if (t.levels > octree::kMaxLevels)
         throw Error("store: a " + octree::detail::dims_text(dims) + " volume needs " + std::to_string(t.levels) +
@@ -306,13 +306,44 @@ private:
     }
 
     /// Slice zc of level s + 1 from slices 2 zc and 2 zc + 1 of level s, with
-    /// octree::detail::downsample's weights and summation order.
+    /// octree::detail::downsample's weights and summation order. Where all 8 fine voxels exist
+    /// and each covers 2^s voxels a side (all but the far edges), every weight is the same
+    /// power of two w = 8^s: w * v, their running sum and the division by 8 w are then w times
+    /// (and 1 / 8 w times) the same double operations on the plain values, so the sum of the 8
+    /// values in the same order times 0.125 gives the same bits, without the weights.
     void downsample(std::uint32_t s, std::uint32_t zc, std::vector<float>& out) {
         const volume::Dims fine = levels_[s].dims, coarse = levels_[s + 1u].dims, full = t_.dims;
         const float* planes[2] = {slice(s, 2u * zc), 2u * zc + 1u < fine.z ? slice(s, 2u * zc + 1u) : nullptr};
+        // Coarse index c is interior along an axis when its second fine voxel 2c + 1 exists and
+        // covers 2^s voxels: (2c + 2) * 2^s <= the full extent.
+        auto interior = [&](std::uint32_t c, std::uint32_t fine_n, std::uint32_t full_n) {
+            return 2u * c + 1u < fine_n && (std::uint64_t{2u * c + 2u} << s) <= full_n;
+        };
+        std::uint32_t fast_x = 0;
+        while (fast_x < coarse.x && interior(fast_x, fine.x, full.x)) ++fast_x;
+        const bool fast_z = interior(zc, fine.z, full.z);
         pool_.parallel_for(0, coarse.y, 8, [&](std::size_t y0, std::size_t y1) {
-            for (std::uint32_t y = std::uint32_t(y0); y < y1; ++y)
-                for (std::uint32_t x = 0; x < coarse.x; ++x) {
+            for (std::uint32_t y = std::uint32_t(y0); y < y1; ++y) {
+                std::uint32_t x = 0;
+                if (fast_z && interior(y, fine.y, full.y)) {
+                    const std::size_t r0 = std::size_t(fine.x) * (2u * y), r1 = r0 + fine.x;
+                    const float *a = planes[0] + r0, *b = planes[0] + r1, *c = planes[1] + r0, *d = planes[1] + r1;
+                    float* o = out.data() + std::size_t(coarse.x) * y;
+                    for (; x < fast_x; ++x) {
+                        const std::uint32_t f = 2u * x;
+                        double sum = 0.0;  // as the weighted sum starts (0.0 + -0.0 is +0.0)
+                        sum += double(a[f]);  // octant order: x, then y, then z
+                        sum += double(a[f + 1u]);
+                        sum += double(b[f]);
+                        sum += double(b[f + 1u]);
+                        sum += double(c[f]);
+                        sum += double(c[f + 1u]);
+                        sum += double(d[f]);
+                        sum += double(d[f + 1u]);
+                        o[x] = float(sum * 0.125);
+                    }
+                }
+                for (; x < coarse.x; ++x) {
                     double sum = 0.0, weight = 0.0;
                     for (std::uint32_t o = 0; o < 8; ++o) {
                         glm::u32vec3 f(2 * x + (o & 1u), 2 * y + ((o >> 1) & 1u), 2 * zc + (o >> 2));
@@ -324,10 +355,12 @@ private:
                     }
                     out[x + std::size_t(coarse.x) * y] = float(sum / weight);
                 }
+            }
         });
     }
 
-    /// octree::detail::fill_brick over the window (the same clamped samples, read row by row).
+    /// octree::detail::fill_brick over the window (the same clamped samples, read row by row,
+    /// in the tree's format: float32 bits, or 2 / 4 rounded samples a word, low bits first).
     void fill_brick(std::uint32_t s, const octree::Node& node, std::uint32_t* out) const {
         const std::uint32_t side = t_.brick_side();
         const glm::ivec3 lo = glm::ivec3(node.coord * t_.brick_size) - int(t_.border);
@@ -335,13 +368,25 @@ private:
         const std::size_t row = levels_[s].dims.x;
         std::uint32_t xs[64 + 4];
         for (std::uint32_t x = 0; x < side; ++x) xs[x] = std::uint32_t(std::clamp(lo.x + int(x), 0, top.x));
-        for (std::uint32_t z = 0; z < side; ++z) {
-            const float* plane = slice(s, std::uint32_t(std::clamp(lo.z + int(z), 0, top.z)));
-            for (std::uint32_t y = 0; y < side; ++y) {
-                const float* line = plane + row * std::uint32_t(std::clamp(lo.y + int(y), 0, top.y));
-                for (std::uint32_t x = 0; x < side; ++x) *out++ = std::bit_cast<std::uint32_t>(line[xs[x]]);
+        // Bits a sample (0: float32 words); a constant in each loop, so j / per word is a shift.
+        auto rows = [&]<std::uint32_t Bits>() {
+            constexpr std::uint32_t max = Bits ? (1u << Bits) - 1u : 0u, per_word = Bits ? 32u / Bits : 1u;
+            if constexpr (Bits != 0u) std::fill(out, out + t_.brick_words(), 0u);
+            std::uint32_t j = 0;
+            for (std::uint32_t z = 0; z < side; ++z) {
+                const float* plane = slice(s, std::uint32_t(std::clamp(lo.z + int(z), 0, top.z)));
+                for (std::uint32_t y = 0; y < side; ++y) {
+                    const float* line = plane + row * std::uint32_t(std::clamp(lo.y + int(y), 0, top.y));
+                    for (std::uint32_t x = 0; x < side; ++x, ++j) {
+                        if constexpr (Bits == 0u) out[j] = std::bit_cast<std::uint32_t>(line[xs[x]]);
+                        else out[j / per_word] |= octree::detail::quantise(line[xs[x]], max) << ((j % per_word) * Bits);
+                    }
+                }
             }
-        }
+        };
+        if (t_.format == octree::BrickFormat::Unorm16) rows.template operator()<16u>();
+        else if (t_.format == octree::BrickFormat::Unorm8) rows.template operator()<8u>();
+        else rows.template operator()<0u>();
     }
 
     /// octree::detail::own_range over the window (same voxels, same order).
@@ -378,7 +423,10 @@ private:
                 words_buf.resize(words);
                 for (std::size_t j = j0; j < j1; ++j) {
                     const std::uint32_t node = L.order[i + j];
-                    own_[node] = own_range(s, t_.nodes[node]);
+                    auto [a, b] = own_range(s, t_.nodes[node]);
+                    // Rounding is monotonic: the stored samples' range (octree::build's).
+                    own_[node] = {octree::detail::stored_density(a, t_.format),
+                                  octree::detail::stored_density(b, t_.format)};
                     if (!todo_[j]) continue;
                     fill_brick(s, t_.nodes[node], words_buf.data());
                     encode_brick(words_buf, cfg_.codec, cfg_.level, batch_[j]);
@@ -449,6 +497,15 @@ inline std::vector<std::uint32_t> store_index(const octree::Tree& t) {
     return w;
 }
 
+/// The brick format `sylva-store build` chooses for a source of `voxel_type`: unorm16 for
+/// uint8 and uint16 volumes (the paper's 16-bit texels: half the bytes of float32 to compress,
+/// store and cache; a uint8 or uint16 volume over its type's range loses nothing, a narrower
+/// range rounds by at most 0.5 / 65535 and keeps every voxel value apart), float32
+/// for float volumes (whose densities are not on a grid of steps).
+inline octree::BrickFormat default_brick_format(std::string_view voxel_type) {
+    return voxel_type == "uint8" || voxel_type == "uint16" ? octree::BrickFormat::Unorm16 : octree::BrickFormat::Float32;
+}
+
 /// The BuildInfo build_store writes for `src` under `cfg`, named `input`.
 inline BuildInfo plan_info(const SliceSource& src, const std::string& input, const StreamConfig& cfg) {
     octree::Tree t = detail::skeleton(src.dims(), src.spacing(), cfg.octree);
@@ -466,6 +523,7 @@ inline BuildInfo plan_info(const SliceSource& src, const std::string& input, con
     b.node_count = static_cast<std::uint32_t>(t.nodes.size());
     b.codec = cfg.codec;
     b.level = cfg.codec == Codec::zstd ? cfg.level : 0;
+    b.brick_format = cfg.octree.format;
     return b;
 }
 

@@ -19,7 +19,7 @@
 namespace sylva::store {
 
 /// The BuildInfo of an in-core tree (input named `input`, densities of unknown origin: value
-/// range [0, 1], float32).
+/// range [0, 1], voxel type float32; bricks in the tree's format).
 inline BuildInfo build_info_of(const octree::Tree& t, std::string input, Codec codec, int level) {
     BuildInfo b;
     b.input = std::move(input);
@@ -31,6 +31,7 @@ inline BuildInfo build_info_of(const octree::Tree& t, std::string input, Codec c
     b.node_count = static_cast<std::uint32_t>(t.nodes.size());
     b.codec = codec;
     b.level = codec == Codec::zstd ? level : 0;
+    b.brick_format = t.format;
     return b;
 }
 
@@ -38,8 +39,9 @@ inline BuildInfo build_info_of(const octree::Tree& t, std::string input, Codec c
 /// a brick and brick key n is node n's (octree::build numbers them so).
 inline void write_tree(const octree::Tree& t, const std::filesystem::path& path, const BuildInfo& info,
                        const WriterConfig& cfg = {}) {
-    if (t.format != octree::BrickFormat::Float32)
-        throw Error("store::write_tree: the store holds float32 bricks; build the octree with BrickFormat::Float32");
+    if (t.format != info.brick_format)
+        throw Error(std::string("store::write_tree: the tree's bricks are ") + brick_format_name(t.format) +
+                    ", the build info says " + brick_format_name(info.brick_format));
     if (t.brick_count() != t.nodes.size()) throw Error("store::write_tree: the tree does not have one brick per node");
     StoreWriter w = StoreWriter::create(path, info, false, cfg);
     std::vector<std::byte> enc;
