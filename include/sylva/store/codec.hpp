@@ -4,9 +4,10 @@
 // A stored brick is a 16-byte header followed by the payload:
 //   byte 0      codec (Codec: 0 none, 1 lz4, 2 zstd)
 //   byte 1      filter (0 none; 1 byte shuffle: the payload compresses the brick's bytes
-//               reordered plane by plane -- all bytes 0 of the float words, then all bytes 1,
-//               2, 3 -- which groups the slowly varying exponent bytes; decoding undoes it, so
-//               the float bits come back exactly)
+//               reordered plane by plane -- all bytes 0 of the 32-bit words, then all bytes 1,
+//               2, 3 -- which groups the slowly varying exponent bytes of float32 samples (and
+//               the high bytes of the two unorm16 samples a word); decoding undoes it, so the
+//               words come back exactly)
 //   bytes 2-3   reserved, 0
 //   bytes 4-7   the brick's uncompressed size in bytes (little-endian uint32): 4 * words
 //   bytes 8-15  XXH3-64 of the uncompressed brick words as the host holds them (little-endian
