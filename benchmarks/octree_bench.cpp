@@ -190,9 +190,7 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     VolumeRenderParams p = params(o, c, g);
     octree::Config cfg;
     cfg.brick_size = o.brick;
-    cfg.format = o.brick_format == "unorm8"    ? octree::BrickFormat::Unorm8
-                 : o.brick_format == "unorm16" ? octree::BrickFormat::Unorm16
-                                               : octree::BrickFormat::Float32;
+    cfg.format = octree::brick_format_from_name(o.brick_format);
     octree::Tree t = octree::build(g, pool, cfg);
     std::vector<std::uint32_t> full = octree::encode(t);
     std::vector<std::uint32_t> lod = full, lod_iso = full;

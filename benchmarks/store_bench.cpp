@@ -411,8 +411,7 @@ void build_section(const Case& c, const Options& o, ThreadPool& pool, bench::Rep
             store::StreamConfig cfg;
             cfg.codec = cs.codec;
             cfg.level = cs.level;
-            cfg.octree.format = o.brick_format == "auto" ? store::default_brick_format(src->voxel_type())
-                                                         : store::brick_format_from_name(o.brick_format);
+            cfg.octree.format = store::brick_format_for(o.brick_format, src->voxel_type());
             cfg.memory_bytes = std::uint64_t(2) << 30;
             auto t0 = Clock::now();
             double c0 = cpu_seconds();

@@ -39,10 +39,7 @@
 
 namespace sylva_render {
 
-/// Name of a brick format (an index's word 5 bits 24-31) in the statistics.
-inline const char* brick_format_name(sylva::octree::BrickFormat f) {
-    return f == sylva::octree::BrickFormat::Unorm8 ? "unorm8" : (f == sylva::octree::BrickFormat::Unorm16 ? "unorm16" : "float32");
-}
+using sylva::octree::brick_format_name;  // a brick format (an index's word 5 bits 24-31) in the statistics
 
 /// Peak resident set size of this process in bytes (getrusage: ru_maxrss is in KiB on Linux).
 inline std::size_t peak_rss_bytes() {

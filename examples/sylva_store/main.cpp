@@ -136,8 +136,7 @@ int build(const Options& o) {
     auto src = open_input(o);
     store::StreamConfig cfg;
     cfg.octree = {o.brick, o.border};
-    cfg.octree.format = o.brick_format == "auto" ? store::default_brick_format(src->voxel_type())
-                                                 : store::brick_format_from_name(o.brick_format);
+    cfg.octree.format = store::brick_format_for(o.brick_format, src->voxel_type());
     cfg.codec = store::codec_from_name(o.codec);
     cfg.level = o.level;
     cfg.memory_bytes = o.memory;

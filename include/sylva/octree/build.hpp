@@ -35,6 +35,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "sylva/core/concepts.hpp"
@@ -76,6 +77,18 @@ enum class BrickFormat : std::uint32_t {
     Unorm16 = SYLVA_OCT_FORMAT_UNORM16,  ///< the paper's 16-bit texels; half the memory
     Unorm8 = SYLVA_OCT_FORMAT_UNORM8,    ///< a quarter of the memory
 };
+
+/// "float32", "unorm16", "unorm8" (statistics, build records, command lines).
+inline const char* brick_format_name(BrickFormat f) {
+    return f == BrickFormat::Unorm16 ? "unorm16" : (f == BrickFormat::Unorm8 ? "unorm8" : "float32");
+}
+
+/// The brick format called `name`; throws sylva::Error listing the known ones.
+inline BrickFormat brick_format_from_name(std::string_view name) {
+    for (BrickFormat f : {BrickFormat::Float32, BrickFormat::Unorm16, BrickFormat::Unorm8})
+        if (name == brick_format_name(f)) return f;
+    throw Error("unknown brick format '" + std::string(name) + "' (known: float32, unorm16, unorm8)");
+}
 
 /// The built octree. Nodes are stored level by level (node 0 is the root) and the existing
 /// children of a node are consecutive, in octant order, from first_child.

@@ -92,17 +92,8 @@ inline std::uint32_t parse_u32(std::string_view s, const char* key) {
 
 }  // namespace detail
 
-/// "float32", "unorm16", "unorm8".
-inline const char* brick_format_name(octree::BrickFormat f) {
-    return f == octree::BrickFormat::Unorm16 ? "unorm16" : (f == octree::BrickFormat::Unorm8 ? "unorm8" : "float32");
-}
-
-/// The brick format called `name`; throws sylva::Error listing the known ones.
-inline octree::BrickFormat brick_format_from_name(std::string_view name) {
-    for (auto f : {octree::BrickFormat::Float32, octree::BrickFormat::Unorm16, octree::BrickFormat::Unorm8})
-        if (name == brick_format_name(f)) return f;
-    throw Error("unknown brick format '" + std::string(name) + "' (known: float32, unorm16, unorm8)");
-}
+using octree::brick_format_from_name;
+using octree::brick_format_name;
 
 /// BuildInfo as "key=value" lines (the "build" key; `sylva-store info` prints them).
 inline std::string to_text(const BuildInfo& b) {

@@ -506,6 +506,12 @@ inline octree::BrickFormat default_brick_format(std::string_view voxel_type) {
     return voxel_type == "uint8" || voxel_type == "uint16" ? octree::BrickFormat::Unorm16 : octree::BrickFormat::Float32;
 }
 
+/// `sylva-store build --brick-format CHOICE` for a source of `voxel_type`: "auto" is
+/// default_brick_format, anything else a format's name (brick_format_from_name).
+inline octree::BrickFormat brick_format_for(std::string_view choice, std::string_view voxel_type) {
+    return choice == "auto" ? default_brick_format(voxel_type) : brick_format_from_name(choice);
+}
+
 /// The BuildInfo build_store writes for `src` under `cfg`, named `input`.
 inline BuildInfo plan_info(const SliceSource& src, const std::string& input, const StreamConfig& cfg) {
     octree::Tree t = detail::skeleton(src.dims(), src.spacing(), cfg.octree);
