@@ -347,7 +347,7 @@ TEST_CASE("ess dvr: images equal the marcher's under each border mode, data touc
     CHECK(bitwise_differing(refs[1], refs[2]) > 0);
 }
 
-TEST_CASE("ess dvr: EssRebuilder (kdtree::Rebuilder over segment codes) gives the fresh trees after TF changes",
+TEST_CASE("ess dvr: EssRebuilder (block ranges for binned trees, segment codes for others) gives the fresh trees after TF changes",
           "[kd_dvr]") {
     ThreadPool pool(2);
     volume::DensityGrid g = volume::sparse_nbody({40, 44, 36}, 6u);
@@ -370,7 +370,15 @@ TEST_CASE("ess dvr: EssRebuilder (kdtree::Rebuilder over segment codes) gives th
                                                                       : kdtree::build_vidal(occ, cfg);
             CHECK(t.nodes == fresh.nodes);
             CHECK(t.stats.occupied == occ.count());
-            CHECK((ess.codes_ms() > 0.0) == (tf.size() != entries));  // codes only for a new entry count
+            if (cfg.planes == kdtree::Planes::Binned) {
+                CHECK(ess.codes_ms() == 0.0);  // binned: no codes, the block ranges once
+                CHECK((ess.ranges_ms() > 0.0) == (entries == 0));
+                REQUIRE(ess.block_ranges() != nullptr);
+                CHECK(ess.timings().blocks_read <= ess.block_ranges()->lo.size());
+            } else {
+                CHECK((ess.codes_ms() > 0.0) == (tf.size() != entries));  // codes only for a new entry count
+                CHECK(ess.ranges_ms() == 0.0);
+            }
             entries = static_cast<std::uint32_t>(tf.size());
             if (tf_name == "nothing visible") {
                 CHECK(t.nodes.empty());
@@ -382,6 +390,95 @@ TEST_CASE("ess dvr: EssRebuilder (kdtree::Rebuilder over segment codes) gives th
             CHECK(bitwise_differing(ref, ess_img) == 0);
         }
     }
+}
+
+TEST_CASE("ess dvr: block ranges and the undecided blocks' voxels give the segment codes' occupancy voxel for voxel",
+          "[kd_dvr]") {
+    ThreadPool pool(2);
+    std::vector<std::pair<std::string, std::vector<std::uint32_t>>> tfs = {
+        {"ct", volume::TransferFunction::ct_bone_tissue().packed_rgba8()},
+        {"band", band_tf(0.3f, 0.36f, 0.4f)},
+        {"ramp, 1024 entries", volume::TransferFunction::ramp(0.2f, 0.6f, vec4(1.0f, 0.8f, 0.5f, 0.6f), 1024).packed_rgba8()},
+        {"all visible", std::vector<std::uint32_t>(256, rgba8(1.0f, 1.0f, 1.0f, 0.5f))},
+        {"nothing visible", std::vector<std::uint32_t>(256, rgba8(1.0f, 1.0f, 1.0f, 0.0f))}};
+    // A comb: 32 visible runs of buckets (more than the 8 the block pass tests as density
+    // intervals, so its voxels go through their buckets), and 3 runs in a 100-entry TF.
+    std::vector<std::uint32_t> comb(256), comb100(100);
+    for (std::size_t i = 0; i < comb.size(); ++i) comb[i] = rgba8(1.0f, 1.0f, 1.0f, (i / 4) % 2 == 1 ? 0.5f : 0.0f);
+    for (std::size_t i = 0; i < comb100.size(); ++i) comb100[i] = rgba8(1.0f, 1.0f, 1.0f, i % 30 == 7 ? 0.5f : 0.0f);
+    tfs.emplace_back("comb of 32 runs", comb);
+    tfs.emplace_back("100 entries, 3 runs", comb100);
+    std::vector<std::pair<std::string, GridBorder>> borders = {
+        {"zero", GridBorder{}}, {"clamp", GridBorder{BorderMode::Clamp, 0.0f}}, {"0.33", GridBorder{BorderMode::Constant, 0.33f}}};
+    // Grids whose sides are and are not multiples of the 8-voxel block, down to one voxel.
+    // Sparse blobs, and Marschner-Lobb: smooth, so neighbourhood ranges are narrow and lie
+    // next to every run boundary of the TFs (a boundary off by 0.01 fails).
+    for (volume::Dims dims : {volume::Dims{40, 44, 36}, volume::Dims{17, 9, 23}, volume::Dims{8, 8, 8},
+                              volume::Dims{1, 1, 1}, volume::Dims{1, 12, 3}, volume::Dims{33, 30, 27}}) {
+        volume::DensityGrid g = dims.x == 33 ? volume::marschner_lobb(dims) : volume::sparse_nbody(dims, 6u);
+        EssBlockRanges r = ess_block_ranges(g, pool);
+        REQUIRE(r.lo.size() == std::size_t{r.blocks.x} * r.blocks.y * r.blocks.z);
+        // The grown ranges against brute force over each block grown by one voxel.
+        std::size_t range_mismatches = 0;
+        for (std::uint32_t b = 0; b < r.lo.size(); ++b) {
+            uvec3 c(b % r.blocks.x, (b / r.blocks.x) % r.blocks.y, b / (r.blocks.x * r.blocks.y));
+            float lo = INFINITY, hi = -INFINITY;
+            for (std::uint32_t z = c.z * 8 > 0 ? c.z * 8 - 1 : 0; z < std::min(dims.z, c.z * 8 + 9); ++z)
+                for (std::uint32_t y = c.y * 8 > 0 ? c.y * 8 - 1 : 0; y < std::min(dims.y, c.y * 8 + 9); ++y)
+                    for (std::uint32_t x = c.x * 8 > 0 ? c.x * 8 - 1 : 0; x < std::min(dims.x, c.x * 8 + 9); ++x) {
+                        float v = g.values[volume::voxel_index(dims, x, y, z)];
+                        lo = std::min(lo, v), hi = std::max(hi, v);
+                    }
+            range_mismatches += (lo != r.lo[b] || hi != r.hi[b]) ? 1u : 0u;
+        }
+        CHECK(range_mismatches == 0);
+        for (const auto& [bname, border] : borders)
+            for (const auto& [tf_name, tf] : tfs) {
+                INFO(dims.x << "x" << dims.y << "x" << dims.z << ", border " << bname << ", " << tf_name);
+                EssClassifier cls = ess_classifier(tf);
+                volume::Occupancy ref = occupancy_for(g, tf, pool, border);
+                std::vector<std::uint8_t> verdicts;
+                ess_block_verdicts(r, cls, border, verdicts);
+                std::size_t wrong_verdicts = 0, decided = 0;
+                for (std::uint32_t z = 0; z < dims.z; ++z)
+                    for (std::uint32_t y = 0; y < dims.y; ++y)
+                        for (std::uint32_t x = 0; x < dims.x; ++x) {
+                            std::uint8_t want = ref.voxels[volume::voxel_index(dims, x, y, z)];
+                            std::uint8_t v = verdicts[x / 8 + r.blocks.x * (y / 8 + std::size_t{r.blocks.y} * (z / 8))];
+                            if (v != kdtree::kBlockRead) ++decided;
+                            if ((v == kdtree::kBlockEmpty && want != 0) || (v == kdtree::kBlockFull && want != 1)) ++wrong_verdicts;
+                        }
+                // The block words: from the verdicts and the undecided blocks' voxels, and with
+                // every block read voxel by voxel, against the words of the codes' occupancy.
+                std::vector<std::uint32_t> want_words, words, all_read_words;
+                kdtree::block_words(ref, pool, want_words);
+                ess_block_words(g, cls, border, verdicts, pool, words);
+                ess_block_words(g, cls, border, std::vector<std::uint8_t>(verdicts.size(), kdtree::kBlockRead), pool,
+                                all_read_words);
+                CHECK(words == want_words);
+                CHECK(all_read_words == want_words);
+                CHECK(wrong_verdicts == 0);
+                if (tf_name == "all visible" || tf_name == "nothing visible") CHECK(decided == ref.voxels.size());
+                // The whole binned build from block ranges equals the binned tree of the codes' occupancy.
+                EssRebuilder<ThreadPool> ess(g, kdtree::Config::deep().binned(), pool, border);
+                kdtree::Tree t = ess.rebuild(cls), fresh = kdtree::build_binned(ref, kdtree::Config::deep().binned(), pool);
+                CHECK(t.nodes == fresh.nodes);
+                CHECK(t.stats.occupied == ref.count());
+                // The same from grid words (native-format path) with the same border.
+                GridWords gw = GridWords::from(g, border);
+                std::vector<std::uint32_t> gw_words;
+                ess_block_words(gw, cls, verdicts, pool, gw_words);
+                CHECK(gw_words == want_words);
+                EssRebuilder<ThreadPool> ess_w(gw, kdtree::Config::deep().binned(), pool);
+                CHECK(ess_w.rebuild(cls).nodes == fresh.nodes);
+            }
+    }
+    volume::DensityGrid nan_grid = volume::sparse_nbody({20, 20, 20}, 2u);
+    nan_grid.values[volume::voxel_index(nan_grid.dims, 11, 3, 17)] = std::nanf("");
+    CHECK_THROWS_WITH(ess_block_ranges(nan_grid, pool), Catch::Contains("NaN density"));
+    EssRebuilder<ThreadPool> nan_ess(nan_grid, kdtree::Config::deep().binned(), pool);
+    CHECK_THROWS_WITH(nan_ess.rebuild(volume::TransferFunction::ct_bone_tissue().packed_rgba8()),
+                      Catch::Contains("NaN density"));
 }
 
 TEST_CASE("ess dvr: aneurism, shallow and deep trees of both builders, images equal the marcher's",

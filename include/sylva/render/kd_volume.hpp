@@ -9,24 +9,12 @@
 //   std::vector<std::uint32_t> words = kdtree::encode(tree);
 //   Frame img = render_kd_dvr_cpu(grid, words, p, pool);        // == render_dvr_cpu(grid, p, pool)
 //
-// The occupancy (see the reasoning in sylva/shared/kd_dvr.h): a voxel is occupied when the
-// transfer function is visible somewhere in the density range of its 3x3x3 neighbourhood (the
-// voxels a trilinear sample in its cell reads). That covers the half-voxel reach of trilinear
-// reconstruction, is exact for any TF, and keeps every visible sample half a voxel inside the
-// occupied cells, so no further dilation is needed.
-//
-// How it is computed. The TF lookup maps a density d to the table segment
-// s(d) = floor(clamp01(d) (N - 1)) (sylva/shared/tf.h; monotone in d), and a density can be
-// visible only in a segment with an entry of alpha > 0 at either end. So each voxel gets the
-// segment range [s(min - eps), s(max + eps)] of its neighbourhood (eps = 2^-20 absorbs the
-// rounding of the three trilinear lerps), stored as one uint16 "segment code": the segments
-// grouped into 256 buckets (bucket = s 256 / N; for N <= 256 one segment a bucket),
-// bits 0-7 the first bucket and bits 8-15 the last. The codes depend only on the volume and the
-// TF's entry count, not on its colours or opacities: a transfer-function change reclassifies
-// the codes through a 65536-entry table, which is exactly what kdtree::Rebuilder (rebuild.hpp)
-// does for a uint16 volume, so EssRebuilder hands it the codes as a uint16 volume and reuses
-// its partial SVTs / Morton block order and local-box arrays across rebuilds (and
-// vk::KdRebuilder can compute the binned builder's local boxes on the device).
+// The occupancy, and the two ways of computing it, are in sylva/render/ess_occupancy.hpp.
+// EssRebuilder builds binned trees (Config::binned(), Zellmann section 4.3) from block ranges:
+// one streaming pass over the densities once per volume, then per TF the 8^3 blocks' verdicts
+// and a voxel-by-voxel read of the undecided blocks only. Other trees (partial SVTs, Vidal's
+// planes) are built by kdtree::Rebuilder over segment codes, computed again only when the TF's
+// entry count changes. Both give the tree of the same occupancy.
 #ifndef SYLVA_RENDER_KD_VOLUME_HPP
 #define SYLVA_RENDER_KD_VOLUME_HPP
 
@@ -46,7 +34,10 @@
 
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
+#include "sylva/kdtree/build_binned.hpp"
+#include "sylva/kdtree/gpu_local_boxes.hpp"
 #include "sylva/kdtree/rebuild.hpp"
+#include "sylva/render/ess_occupancy.hpp"
 #include "sylva/render/volume.hpp"
 #include "sylva/shared/kd_dvr.h"
 #include "sylva/volume/grid.hpp"
@@ -54,253 +45,12 @@
 
 namespace sylva {
 
-/// Buckets of TF segments a segment code distinguishes (8 bits each end).
-inline constexpr std::uint32_t kEssBuckets = 256;
-
-/// The segment codes of a density grid for a TF of `entries` entries, as a uint16 volume
-/// (range [0, 65535], so a classifier sees code / 65535): bits 0-7 the first, bits 8-15 the
-/// last bucket of TF segments the voxel's 3x3x3 neighbourhood can reach (see above).
-struct EssCodes {
-    volume::Volume volume;
-    std::uint32_t entries = 0;  ///< TF entry count N the codes were made for
-    double ms = 0.0;            ///< time to compute them
-};
-
-/// Which codes are visible under one transfer function (or threshold): a prefix count over the
-/// 256 buckets. A VoxelClassifier over the codes' normalised values (code / 65535).
-class EssClassifier {
-public:
-    /// From per-segment visibility, one flag per entry s of a TF of N entries: segment s holds
-    /// the densities the lookup maps to entries s and s + 1 (segment N - 1: density 1 alone).
-    /// Bucket b is visible when one of its segments is.
-    EssClassifier(const std::vector<std::uint8_t>& segment_visible, std::uint32_t entries) : entries_(entries) {
-        if (entries < 2 || segment_visible.size() != entries)
-            throw Error("kd-dvr: segment visibility for " + std::to_string(segment_visible.size()) + " segments, TF of " +
-                        std::to_string(entries) + " entries");
-        std::array<std::uint8_t, kEssBuckets> bucket{};
-        for (std::uint32_t s = 0; s < entries; ++s)
-            if (segment_visible[s]) bucket[bucket_of(s, entries)] = 1u;
-        for (std::uint32_t b = 0; b < kEssBuckets; ++b) prefix_[b + 1] = prefix_[b] + bucket[b];
-    }
-    /// Bucket of segment s for a TF of n entries.
-    static std::uint32_t bucket_of(std::uint32_t s, std::uint32_t n) {
-        return static_cast<std::uint32_t>(std::uint64_t{s} * kEssBuckets / n);
-    }
-    /// True when the code's bucket range holds a visible bucket.
-    [[nodiscard]] bool visible(std::uint32_t code) const {
-        std::uint32_t lo = code & 255u, hi = (code >> 8) & 255u;
-        return hi >= lo && prefix_[hi + 1] != prefix_[lo];
-    }
-    /// VoxelClassifier: the normalised value of a code voxel.
-    [[nodiscard]] bool operator()(float normalised) const {
-        return visible(static_cast<std::uint32_t>(std::lround(std::clamp(normalised, 0.0f, 1.0f) * 65535.0f)));
-    }
-    [[nodiscard]] std::uint32_t entries() const { return entries_; }
-    /// Number of visible buckets (0: nothing can be seen).
-    [[nodiscard]] std::uint32_t visible_buckets() const { return prefix_[kEssBuckets]; }
-
-private:
-    std::array<std::uint32_t, kEssBuckets + 1> prefix_{};
-    std::uint32_t entries_;
-};
-static_assert(volume::VoxelClassifier<EssClassifier>);
-
-/// The transfer function `tf` (packed RGBA8 words, the renderer's table; sylva/shared/tf.h)
-/// as an EssClassifier: segment s is visible when entry s or s + 1 has alpha > 0.
-inline EssClassifier ess_classifier(std::span<const std::uint32_t> tf) {
-    if (tf.size() < 2 || tf.size() > (std::size_t{1} << 24))
-        throw Error("kd-dvr: the transfer function needs 2 to 2^24 entries, got " + std::to_string(tf.size()));
-    auto n = static_cast<std::uint32_t>(tf.size());
-    std::vector<std::uint8_t> vis(n);
-    for (std::uint32_t s = 0; s < n; ++s) vis[s] = ((tf[s] >> 24) != 0u || (tf[std::min(s + 1, n - 1)] >> 24) != 0u) ? 1u : 0u;
-    return EssClassifier(vis, n);
-}
-
-/// Density-threshold classification over segments of a TF of `entries` entries: segment s is
-/// visible when its upper end (s + 1) / (N - 1) reaches `threshold`, i.e. when it holds
-/// densities >= threshold (the BIH's voxel elements, Kinkelin section 6.1). The image equals
-/// the marcher's only when the TF is transparent below the threshold.
-inline EssClassifier ess_threshold_classifier(float threshold, std::uint32_t entries) {
-    if (!std::isfinite(threshold)) throw Error("kd-dvr: the density threshold is not finite");
-    if (entries < 2) throw Error("kd-dvr: the transfer function needs at least 2 entries");
-    std::vector<std::uint8_t> vis(entries);
-    for (std::uint32_t s = 0; s < entries; ++s)
-        vis[s] = static_cast<float>(std::min(s + 1, entries - 1)) / static_cast<float>(entries - 1) >= threshold ? 1u : 0u;
-    return EssClassifier(vis, entries);
-}
-
-namespace detail {
-
-inline double ess_ms_since(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-/// Buckets of the TF segments of densities (the shader's arithmetic), n entries.
-struct EssBucketMap {
-    std::uint32_t n;
-    std::vector<std::uint8_t> of_segment;  ///< bucket of each segment
-
-    explicit EssBucketMap(std::uint32_t entries) : n(entries), of_segment(entries) {
-        for (std::uint32_t s = 0; s < n; ++s) of_segment[s] = static_cast<std::uint8_t>(EssClassifier::bucket_of(s, n));
-    }
-    [[nodiscard]] std::uint8_t operator()(float d) const {
-        float x = shared::sylva_tf_clamp01(d) * static_cast<float>(n - 1);
-        return of_segment[std::min(static_cast<std::uint32_t>(x), n - 1)];
-    }
-};
-
-/// Buckets a constant border adds to the neighbourhoods of the grid's boundary voxels (their
-/// out-of-grid neighbours read the border value, sylva/shared/grid_sample.h); for a clamped
-/// border the neutral pair (255, 0): the edge voxel is already in the neighbourhood.
-struct EssBorder {
-    std::uint8_t lo = 255;
-    std::uint8_t hi = 0;
-};
-
-inline EssBorder ess_border(const GridBorder& b, std::uint32_t entries) {
-    b.check();
-    if (b.mode == BorderMode::Clamp) return {};
-    constexpr float eps = 1.0f / 1048576.0f;
-    EssBucketMap bucket(entries);
-    return {bucket(b.value - eps), bucket(b.value + eps)};
-}
-
-/// One pass of a 3-wide min (lo) / max (hi) filter over `count` lines of `n` entries along an
-/// axis whose neighbours are `n` entries apart, in `outer` independent blocks; src -> dst. The
-/// first and last lines also take the border's buckets.
-template <Executor X>
-void ess_filter_pass(const std::vector<std::uint8_t>& slo, const std::vector<std::uint8_t>& shi,
-                     std::vector<std::uint8_t>& dlo, std::vector<std::uint8_t>& dhi, std::size_t n, std::size_t count,
-                     std::size_t outer, EssBorder border, X& exec) {
-    exec.parallel_for(0, outer * count, 1, [&](std::size_t j0, std::size_t j1) {
-        for (std::size_t j = j0; j < j1; ++j) {
-            std::size_t o = j / count, i = j % count, base = o * count * n;
-            std::size_t a = base + (i > 0 ? i - 1 : i) * n, b = base + i * n, c = base + (i + 1 < count ? i + 1 : i) * n;
-            bool edge = i == 0 || i + 1 == count;
-            std::uint8_t elo = edge ? border.lo : 255, ehi = edge ? border.hi : 0;
-            for (std::size_t k = 0; k < n; ++k) {
-                dlo[b + k] = std::min(std::min(std::min(slo[a + k], slo[b + k]), slo[c + k]), elo);
-                dhi[b + k] = std::max(std::max(std::max(shi[a + k], shi[b + k]), shi[c + k]), ehi);
-            }
-        }
-    });
-}
-
-/// Per voxel the buckets of d - eps and d + eps (d = density(i)), then the 3-wide filter
-/// along x, per row (the row's ends also take the border's buckets).
-template <Executor X, class Density>
-void ess_rows(const Density& density, volume::Dims dims, std::uint32_t entries, EssBorder border,
-              std::vector<std::uint8_t>& lo, std::vector<std::uint8_t>& hi, X& exec) {
-    constexpr float eps = 1.0f / 1048576.0f;  // 2^-20: above the rounding of three lerps
-    std::uint32_t nx = dims.x;
-    std::size_t rows = std::size_t{dims.y} * dims.z;
-    EssBucketMap bucket(entries);
-    exec.parallel_for(0, rows, 64, [&](std::size_t r0, std::size_t r1) {
-        std::vector<std::uint8_t> blo(nx), bhi(nx);
-        for (std::size_t r = r0; r < r1; ++r) {
-            for (std::uint32_t x = 0; x < nx; ++x) {
-                float v = density(r * nx + x);
-                if (std::isnan(v)) throw Error("kd-dvr: the grid holds a NaN density");
-                blo[x] = bucket(v - eps);
-                bhi[x] = bucket(v + eps);
-            }
-            for (std::uint32_t x = 0; x < nx; ++x) {
-                std::uint32_t a = x > 0 ? x - 1 : x, c = x + 1 < nx ? x + 1 : x;
-                bool edge = x == 0 || x + 1 == nx;
-                lo[r * nx + x] = std::min(std::min(std::min(blo[a], blo[x]), blo[c]), edge ? border.lo : std::uint8_t{255});
-                hi[r * nx + x] = std::max(std::max(std::max(bhi[a], bhi[x]), bhi[c]), edge ? border.hi : std::uint8_t{0});
-            }
-        }
-    });
-}
-
-/// The segment codes of the n voxels of `dims` whose densities `density(i)` gives.
-template <Executor X, class Density>
-EssCodes ess_codes_of(const Density& density, volume::Dims dims, vec3 spacing, std::uint32_t entries,
-                      const GridBorder& gb, X& exec) {
-    auto t0 = std::chrono::steady_clock::now();
-    std::size_t n = volume::voxel_count(dims);
-    if (entries < 2 || entries > (1u << 24)) throw Error("kd-dvr: the transfer function needs 2 to 2^24 entries");
-    EssBorder border = ess_border(gb, entries);
-    std::vector<std::uint8_t> lo(n), hi(n), lo2(n), hi2(n);
-    ess_rows(density, dims, entries, border, lo, hi, exec);
-    ess_filter_pass(lo, hi, lo2, hi2, dims.x, dims.y, dims.z, border, exec);                     // along y
-    ess_filter_pass(lo2, hi2, lo, hi, std::size_t{dims.x} * dims.y, dims.z, 1, border, exec);  // along z
-    std::vector<std::uint8_t>().swap(lo2);  // peak 4 bytes a voxel (not 6) while the codes are written
-    std::vector<std::uint8_t>().swap(hi2);
-    EssCodes c;
-    c.entries = entries;
-    c.volume.type = volume::ScalarType::U16;
-    c.volume.dims = dims;
-    c.volume.spacing = spacing;
-    c.volume.range_lo = 0.0f;
-    c.volume.range_hi = 65535.0f;
-    c.volume.bytes.resize(n * 2);
-    exec.parallel_for(0, n, std::size_t{1} << 16, [&](std::size_t i0, std::size_t i1) {
-        for (std::size_t i = i0; i < i1; ++i) {
-            auto code = static_cast<std::uint16_t>(lo[i] | (hi[i] << 8));
-            std::memcpy(&c.volume.bytes[2 * i], &code, 2);
-        }
-    });
-    c.ms = detail::ess_ms_since(t0);
-    return c;
-}
-
-}  // namespace detail
-
-/// The segment codes of `g` for a TF of `entries` entries (see EssCodes), in parallel, for a
-/// marcher whose grid has the border `border` (the boundary voxels' neighbourhoods hold the
-/// border value when it is constant). Throws sylva::Error when the values do not match the
-/// dimensions or one is NaN.
-template <Executor X>
-EssCodes ess_codes(const volume::DensityGrid& g, std::uint32_t entries, X& exec, const GridBorder& border = {}) {
-    std::size_t n = volume::voxel_count(g.dims);
-    if (g.values.size() != n || n == 0)
-        throw Error("kd-dvr: the grid holds " + std::to_string(g.values.size()) + " values for " + std::to_string(n) +
-                    " voxels");
-    return detail::ess_codes_of([&](std::size_t i) { return g.values[i]; }, g.dims, g.spacing, entries, border, exec);
-}
-
-/// The segment codes of grid words in any format (GridWords::native: no float copy), with the
-/// grid's own border.
-template <Executor X>
-EssCodes ess_codes(const GridWords& g, std::uint32_t entries, X& exec) {
-    g.check_words("kd-dvr");
-    shared::Words w{g.words.data(), g.words.size()};
-    shared::SylvaGridDesc desc = g.desc();
-    if (is_sparse(g.sampling.format))
-        return detail::ess_codes_of([&](std::size_t i) { return g.density(i); }, g.dims, g.spacing, entries,
-                                    g.sampling.border, exec);
-    return detail::ess_codes_of(
-        [&](std::size_t i) { return shared::sylva_grid_word_density(w, desc, static_cast<std::uint32_t>(i)); }, g.dims,
-        g.spacing, entries, g.sampling.border, exec);
-}
-
-/// The code of voxel i.
-inline std::uint16_t ess_code(const EssCodes& c, std::size_t i) {
-    std::uint16_t code;
-    std::memcpy(&code, &c.volume.bytes[2 * i], 2);
-    return code;
-}
-
-/// The occupancy of `codes` under `cls` (for builders fed directly), in parallel.
-template <Executor X>
-volume::Occupancy ess_occupancy(const EssCodes& codes, const EssClassifier& cls, X& exec) {
-    if (cls.entries() != codes.entries)
-        throw Error("kd-dvr: codes made for a TF of " + std::to_string(codes.entries) + " entries, classifier for " +
-                    std::to_string(cls.entries()));
-    std::size_t n = volume::voxel_count(codes.volume.dims);
-    volume::Occupancy occ{codes.volume.dims, codes.volume.spacing, std::vector<std::uint8_t>(n)};
-    exec.parallel_for(0, n, std::size_t{1} << 16, [&](std::size_t i0, std::size_t i1) {
-        for (std::size_t i = i0; i < i1; ++i) occ.voxels[i] = cls.visible(ess_code(codes, i)) ? 1u : 0u;
-    });
-    return occ;
-}
-
-/// Rebuilds the ESS kd-tree of one density grid when the transfer function changes, through
-/// kdtree::Rebuilder over the segment codes (recomputed only when the TF's entry count
-/// changes). The grid and the executor must outlive it. The tree is exact for a marcher whose
-/// grid has the same border (GridWords::from's default, constant 0, for a DensityGrid).
+/// Rebuilds the ESS kd-tree of one density grid when the transfer function changes (see the
+/// top of this header): binned configs from block ranges (computed once, at the first
+/// rebuild), others through kdtree::Rebuilder over segment codes (recomputed only when the TF's
+/// entry count changes). The grid and the executor must outlive it. The tree is exact for a
+/// marcher whose grid has the same border (GridWords::from's default, constant 0, for a
+/// DensityGrid).
 template <Executor X>
 class EssRebuilder {
 public:
@@ -323,16 +73,29 @@ public:
     /// The tree under any EssClassifier (ess_classifier, ess_threshold_classifier).
     kdtree::Tree rebuild(const EssClassifier& cls) {
         codes_ms_ = 0.0;
-        prepare(cls.entries());
-        return rebuilder_->rebuild(cls);
+        ranges_ms_ = 0.0;
+        if (cfg_.planes == kdtree::Planes::Binned) return rebuild_from_blocks(cls);
+        prepare_codes(cls.entries());
+        kdtree::Tree t = rebuilder_->rebuild(cls);
+        timings_ = rebuilder_->timings();
+        return t;
     }
-    /// The codes the trees are built on (after the first rebuild).
-    [[nodiscard]] const EssCodes& codes() const { return *codes_; }
-    /// Phases of the last rebuild (classify_ms: the 65536-entry table; occupancy_ms: partial
-    /// SVTs or local boxes; split_ms).
-    [[nodiscard]] const kdtree::RebuildTimings& timings() const { return rebuilder_->timings(); }
-    /// Time the last rebuild spent computing segment codes (0 unless the TF's entry count changed).
+    /// The segment codes the last non-binned tree was built on (null before one).
+    [[nodiscard]] const EssCodes* codes() const { return codes_.get(); }
+    /// The block ranges binned trees are built from (null before the first binned rebuild).
+    [[nodiscard]] const EssBlockRanges* block_ranges() const { return ranges_ ? &*ranges_ : nullptr; }
+    /// Phases of the last rebuild (classify_ms: block verdicts, or the codes' 65536-entry table;
+    /// occupancy_ms: the undecided blocks' voxels and the local boxes, or partial SVTs;
+    /// split_ms; blocks_read).
+    [[nodiscard]] const kdtree::RebuildTimings& timings() const { return timings_; }
+    /// Time the last rebuild spent computing segment codes (0 unless a non-binned rebuild met a
+    /// new TF entry count).
     [[nodiscard]] double codes_ms() const { return codes_ms_; }
+    /// Time the last rebuild spent on the block ranges' streaming pass (0 but for the first
+    /// binned rebuild).
+    [[nodiscard]] double ranges_ms() const { return ranges_ms_; }
+    /// The whole of the last rebuild: codes or ranges, verdicts, occupancy and splitting.
+    [[nodiscard]] double total_ms() const { return codes_ms_ + ranges_ms_ + timings_.total_ms(); }
     void set_config(const kdtree::Config& cfg) {
         kdtree::detail::check_config(cfg);
         cfg_ = cfg;
@@ -340,14 +103,43 @@ public:
     }
 
 private:
-    void prepare(std::uint32_t entries) {
-        if (codes_ && codes_->entries == entries) return;
+    void prepare_codes(std::uint32_t entries) {
+        if (codes_ && codes_->entries == entries) {
+            if (!rebuilder_) rebuilder_.emplace(codes_->volume, cfg_, *exec_);
+            return;
+        }
         rebuilder_.reset();
         codes_ = std::make_unique<EssCodes>(grid_ != nullptr ? ess_codes(*grid_, entries, *exec_, border_)
                                                              : ess_codes(*words_, entries, *exec_));
         codes_ms_ = codes_->ms;
         rebuilder_.emplace(codes_->volume, cfg_, *exec_);
     }
+
+    kdtree::Tree rebuild_from_blocks(const EssClassifier& cls) {
+        if (!ranges_) {
+            ranges_.emplace(grid_ != nullptr ? ess_block_ranges(*grid_, *exec_) : ess_block_ranges(*words_, *exec_));
+            ranges_ms_ = ranges_->ms;
+            auto t0 = std::chrono::steady_clock::now();
+            order_ = kdtree::BlockOrder::of(ranges_->dims);
+            ranges_ms_ += detail::ess_ms_since(t0);
+        }
+        timings_ = kdtree::RebuildTimings{};
+        auto t0 = std::chrono::steady_clock::now();
+        ess_block_verdicts(*ranges_, cls, border_, verdicts_);
+        timings_.blocks_read =
+            static_cast<std::size_t>(std::count(verdicts_.begin(), verdicts_.end(), kdtree::kBlockRead));
+        timings_.classify_ms = detail::ess_ms_since(t0);
+        auto t1 = std::chrono::steady_clock::now();
+        if (grid_ != nullptr) ess_block_words(*grid_, cls, border_, verdicts_, *exec_, block_words_);
+        else ess_block_words(*words_, cls, verdicts_, *exec_, block_words_);
+        kdtree::gather_local_boxes(block_words_, order_, grid_ != nullptr ? grid_->spacing : words_->spacing, boxes_);
+        timings_.occupancy_ms = detail::ess_ms_since(t1);
+        kdtree::Tree t = kdtree::build(boxes_, cfg_, *exec_);
+        timings_.split_ms = t.stats.split_ms;
+        t.stats.occupancy_ms = ranges_ms_ + timings_.classify_ms + timings_.occupancy_ms;
+        return t;
+    }
+
     const volume::DensityGrid* grid_ = nullptr;
     const GridWords* words_ = nullptr;
     X* exec_;
@@ -355,7 +147,13 @@ private:
     GridBorder border_;
     std::unique_ptr<EssCodes> codes_;
     std::optional<kdtree::Rebuilder<X>> rebuilder_;
-    double codes_ms_ = 0.0;
+    std::optional<EssBlockRanges> ranges_;
+    kdtree::BlockOrder order_;
+    std::vector<std::uint8_t> verdicts_;
+    std::vector<std::uint32_t> block_words_;
+    kdtree::LocalBoxes boxes_;
+    kdtree::RebuildTimings timings_;
+    double codes_ms_ = 0.0, ranges_ms_ = 0.0;
 };
 
 namespace detail {
