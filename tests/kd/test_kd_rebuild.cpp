@@ -5,6 +5,7 @@
 // empty and all-opaque transfer functions, bad input.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -266,6 +267,23 @@ TEST_CASE("rebuild: verdict-driven block words equal a full pass", "[kd][rebuild
             check_verdicts(volume::classified(v, volume::DensityThreshold{th}), &v, volume::DensityThreshold{th});
         auto band = [](float d) { return d > 0.2f && d < 0.6f; };
         check_verdicts(volume::classified(v, band), &v, band);
+    }
+}
+
+TEST_CASE("rebuild: the blocks' Morton order is every block once, ascending code", "[kd][rebuild]") {
+    for (volume::Dims d : {volume::Dims{1, 1, 1}, volume::Dims{256, 256, 256}, volume::Dims{100, 8, 300},
+                           volume::Dims{9, 1000, 17}, volume::Dims{8000, 1, 1}}) {
+        INFO(d.x << "x" << d.y << "x" << d.z);
+        kdtree::BlockOrder o = kdtree::BlockOrder::of(d);
+        uvec3 nb = kdtree::block_counts(d);
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> want;
+        for (std::uint32_t i = 0; i < nb.x * nb.y * nb.z; ++i)
+            want.push_back({kdtree::morton3(uvec3(i % nb.x, (i / nb.x) % nb.y, i / (nb.x * nb.y))), i});
+        std::sort(want.begin(), want.end());
+        REQUIRE(o.size() == want.size());
+        std::size_t wrong = 0;
+        for (std::size_t k = 0; k < want.size(); ++k) wrong += (o.code[k] != want[k].first || o.index[k] != want[k].second) ? 1u : 0u;
+        CHECK(wrong == 0);
     }
 }
 

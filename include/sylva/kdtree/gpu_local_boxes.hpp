@@ -69,15 +69,29 @@ struct BlockOrder {
             throw Error("kdtree: more than 2^21 blocks along an axis overflow the 64-bit Morton code");
         std::uint64_t n = std::uint64_t{o.blocks.x} * o.blocks.y * o.blocks.z;
         if (n > 0xFFFFFFFFull) throw Error("kdtree: " + std::to_string(n) + " blocks overflow 32-bit block indices");
-        std::vector<std::pair<std::uint64_t, std::uint32_t>> pairs(static_cast<std::size_t>(n));
-        for (std::uint32_t i = 0; i < n; ++i) {
-            uvec3 c(i % o.blocks.x, (i / o.blocks.x) % o.blocks.y, i / (o.blocks.x * o.blocks.y));
-            pairs[i] = {morton3(c), i};
+        o.index.reserve(static_cast<std::size_t>(n));
+        o.code.reserve(static_cast<std::size_t>(n));
+        // Ascending Morton order without a sort: the cube of power-of-two side around the grid,
+        // walked depth first, children in code order (x the lowest bit), cells outside skipped.
+        std::uint32_t side = std::bit_ceil(std::max({o.blocks.x, o.blocks.y, o.blocks.z}));
+        struct Cell {
+            uvec3 lo;
+            std::uint32_t side;
+        };
+        std::vector<Cell> stack{{uvec3(0u), side}};
+        while (!stack.empty()) {
+            Cell c = stack.back();
+            stack.pop_back();
+            if (c.lo.x >= o.blocks.x || c.lo.y >= o.blocks.y || c.lo.z >= o.blocks.z) continue;
+            if (c.side == 1u) {
+                o.index.push_back(c.lo.x + o.blocks.x * (c.lo.y + o.blocks.y * c.lo.z));
+                o.code.push_back(morton3(c.lo));
+                continue;
+            }
+            std::uint32_t h = c.side / 2u;
+            for (std::uint32_t k = 8; k-- > 0;)  // pushed last to first: child 0 comes off first
+                stack.push_back({c.lo + uvec3(k & 1u, (k >> 1) & 1u, (k >> 2) & 1u) * h, h});
         }
-        std::sort(pairs.begin(), pairs.end());
-        o.index.resize(pairs.size());
-        o.code.resize(pairs.size());
-        for (std::size_t k = 0; k < pairs.size(); ++k) o.code[k] = pairs[k].first, o.index[k] = pairs[k].second;
         return o;
     }
     [[nodiscard]] std::size_t size() const { return index.size(); }
