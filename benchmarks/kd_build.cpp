@@ -38,6 +38,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include <sylva/core/executor.hpp>
@@ -45,6 +46,7 @@
 #include <sylva/kdtree/build_binned.hpp>
 #include <sylva/kdtree/build_parallel.hpp>
 #include <sylva/kdtree/rebuild.hpp>
+#include <sylva/render/kd_volume.hpp>
 #include <sylva/volume/classify.hpp>
 #include <sylva/volume/occupancy.hpp>
 #include <sylva/volume/partial_svt.hpp>
@@ -217,6 +219,31 @@ void run_parallel(const S& src, X& exec, int threads, int runs, StreamPass& stre
                                   [&] { return kdtree::build_binned(src, cfg.binned(), exec); }));
 }
 
+/// The ESS tree as sylva-render --index kd-binned builds it the first time (issue 15, item 5):
+/// occupancy from the TF over every voxel's 3x3x3 neighbourhood of the density grid, a deep
+/// binned tree, 2 threads, everything from scratch every run (EssRebuilder constructed anew).
+/// "ess-blocks": block ranges (one streaming pass), the undecided blocks' voxels; "ess-codes":
+/// segment codes and kdtree::Rebuilder over them (the path before, and that of Vulkan).
+template <Executor X>
+void run_ess(const volume::DensityGrid& g, X& exec, int runs, StreamPass& stream, std::vector<Row>& rows) {
+    std::vector<std::uint32_t> tf = volume::TransferFunction::ct_bone_tissue().packed_rgba8();
+    kdtree::Config cfg = kdtree::Config::deep().binned();
+    rows.push_back(time_build("ess-blocks-tf", "deep", 2, runs, stream, [&] {
+        EssRebuilder<X> ess(g, cfg, exec);
+        kdtree::Tree t = ess.rebuild(tf);
+        t.stats.occupancy_ms = ess.total_ms() - t.stats.split_ms;
+        return t;
+    }));
+    rows.push_back(time_build("ess-codes-tf", "deep", 2, runs, stream, [&] {
+        double t0 = now_ms();
+        EssCodes codes = ess_codes(g, static_cast<std::uint32_t>(tf.size()), exec);
+        kdtree::Rebuilder<X> r(codes.volume, cfg, exec);
+        kdtree::Tree t = r.rebuild(ess_classifier(tf));
+        t.stats.occupancy_ms = now_ms() - t0 - t.stats.split_ms;
+        return t;
+    }));
+}
+
 void print_rows(const std::vector<Row>& rows) {
     std::printf("  %-17s %-7s %3s %10s %10s %10s %8s %8s %7s %7s %5s\n", "builder", "tree", "thr", "occup.ms",
                 "split.ms", "total.ms", "x stream", "culled%", "leaves", "nodes", "depth");
@@ -241,18 +268,30 @@ void report_rows(const std::string& c, const std::vector<Row>& rows, Report& rep
 }
 
 template <volume::OccupancySource S>
-void section_builders(const Case& c, const S& src, const Options& o, Report& rep) {
+void section_builders(const Case& c, const S& src, const volume::DensityGrid& grid, const Options& o, Report& rep) {
     std::vector<Row> rows;
     SerialExecutor serial;
     ThreadPool pool(2);
     StreamPass s1{[&] { return volume::count_occupied(src, serial); }, {}};
     StreamPass s2{[&] { return volume::count_occupied(src, pool); }, {}};
     int runs = c.nbody >= 1024 ? std::min(o.runs, 3) : o.runs;
+    // The headline: the first build a user runs, classification included, over one streaming pass.
+    std::vector<Row> ess;
+    if (volume::voxel_count(grid.dims) > (std::size_t{1} << 27)) {
+        std::printf("  ESS build: left out above 512^3 voxels (the segment codes' row would take 6 bytes a voxel)\n");
+    } else {
+        run_ess(grid, pool, runs, s2, ess);
+        std::printf("  ESS build as sylva-render --index kd-binned runs it (CT TF over 3x3x3 neighbourhoods, deep binned "
+                "tree, 2 threads, from scratch): %.2f ms = %.2fx one streaming pass (%.2f ms); with segment codes "
+                "%.2f ms = %.2fx\n",
+                    ess[0].total_ms, ess[0].ratio, ess[0].stream_ms, ess[1].total_ms, ess[1].ratio);
+    }
     run_vidal(src, runs, s1, rows);
     run_parallel(src, serial, 1, runs, s1, rows);
     run_parallel(src, pool, 2, runs, s2, rows);
     std::printf("  builders (medians of %d runs); streaming pass %.2f ms (1 thread), %.2f ms (2 threads)\n", runs,
                 median(s1.ms), median(s2.ms));
+    rows.insert(rows.end(), ess.begin(), ess.end());
     print_rows(rows);
     if (c.paper) std::printf("  Zellmann Table 1 (CPU: 16 threads, Xeon Gold 5122; GPU: Titan V): %s\n", c.paper);
     rep.add(c.name, "stream/1t", "stream_ms", median(s1.ms), "ms");
@@ -485,7 +524,14 @@ void run_case(const Case& c, const V& vol, const Options& o, Report& rep) {
                 vol.dims.y, vol.dims.z, c.threshold, 100.0 * double(occupied) / double(voxels),
                 static_cast<unsigned long long>(occupied));
     rep.add(c.name, "volume", "occupancy", 100.0 * double(occupied) / double(voxels), "%");
-    if (o.section("builders")) section_builders(c, src, o, rep);
+    if (o.section("builders")) {
+        if constexpr (std::is_same_v<V, volume::DensityGrid>) {
+            section_builders(c, src, vol, o, rep);
+        } else {
+            volume::DensityGrid g = volume::normalize(vol);  // untimed, as sylva-render does at load
+            section_builders(c, src, g, o, rep);
+        }
+    }
     if (o.section("levels")) section_levels(c, src, rep);
     if (o.section("replay")) section_replay(c, vol, o, rep);
 #if SYLVA_KD_BENCH_VULKAN
@@ -503,7 +549,10 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
         "Cases: bonsai, aneurism, engine (files under --data; a missing one is skipped), nbody128 ...\n"
         "nbody1024 (the sparse N-body volume, generated). Sections, per case:\n"
         "  builders  Vidal's serial, Zellmann's parallel and the binned builder, shallow and deep trees,\n"
-        "            1 and 2 threads, beside one streaming pass and Zellmann's Table 1\n"
+        "            1 and 2 threads, beside one streaming pass and Zellmann's Table 1; first, the headline:\n"
+        "            the ESS build sylva-render --index kd-binned runs (TF over 3x3x3 neighbourhoods,\n"
+        "            classification included) over one streaming pass, from block ranges and from\n"
+        "            segment codes (up to 512^3 voxels)\n"
         "  levels    Vidal's space removed by level of subdivision (his Table 1)\n"
         "  replay    a sequence of transfer functions: kdtree::Rebuilder against fresh builds\n"
         "  gpu       the local-box pass on the Vulkan device against the host (Vulkan builds only)\n"

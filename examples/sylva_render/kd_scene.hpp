@@ -7,6 +7,7 @@
 #ifndef SYLVA_RENDER_KD_SCENE_HPP
 #define SYLVA_RENDER_KD_SCENE_HPP
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <iostream>
@@ -21,7 +22,9 @@
 #include <sylva/render/image.hpp>
 #include <sylva/render/kd_volume.hpp>
 #include <sylva/render/volume.hpp>
+#include <sylva/volume/classify.hpp>
 #include <sylva/volume/grid.hpp>
+#include <sylva/volume/occupancy.hpp>
 #ifdef SYLVA_RENDER_VULKAN
 #include <sylva/vulkan/kd_build.hpp>
 #include <sylva/vulkan/kd_volume.hpp>
@@ -67,9 +70,10 @@ struct Device {
 #endif
 };
 
-/// Rebuilds the ESS tree under changing transfer functions: segment codes (recomputed when the
-/// TF's entry count changes), then kdtree::Rebuilder on the host or, for kd-binned on Vulkan,
-/// vk::KdRebuilder (the binned builder's local boxes on the device, the splitting on the host).
+/// Rebuilds the ESS tree under changing transfer functions: on the host EssRebuilder (kd-binned
+/// from block ranges, kd-vidal over segment codes); for kd-binned on Vulkan, segment codes
+/// (recomputed when the TF's entry count changes) and vk::KdRebuilder (the binned builder's
+/// local boxes on the device, the splitting on the host).
 class KdBuilder {
 public:
     KdBuilder(const Options& o, const volume::DensityGrid& g, ThreadPool& pool, Device& dev)
@@ -77,35 +81,39 @@ public:
 
     kdtree::Tree rebuild(const EssClassifier& cls) {
         codes_ms_ = 0.0;
-        if (!codes_ || codes_->entries != cls.entries()) {
-#ifdef SYLVA_RENDER_VULKAN
-            dev_.rebuilder.reset();
-#endif
-            host_.reset();
-            codes_.emplace(ess_codes(grid_, cls.entries(), pool_, grid_border(o_)));
-            codes_ms_ = codes_->ms;
-#ifdef SYLVA_RENDER_VULKAN
-            if (on_device()) dev_.rebuilder.emplace(*dev_.ctx, codes_->volume, cfg_, pool_);
-#endif
-            if (!on_device()) host_.emplace(codes_->volume, cfg_, pool_);
-        }
-#ifdef SYLVA_RENDER_VULKAN
-        if (on_device()) {
-            kdtree::Tree t = dev_.rebuilder->rebuild(cls);
-            timings_ = dev_.rebuilder->timings();
+        ranges_ms_ = 0.0;
+        if (!on_device()) {
+            if (!host_) host_.emplace(grid_, cfg_, pool_, grid_border(o_));
+            kdtree::Tree t = host_->rebuild(cls);
+            timings_ = host_->timings();
+            codes_ms_ = host_->codes_ms();
+            ranges_ms_ = host_->ranges_ms();
             return t;
         }
-#endif
-        kdtree::Tree t = host_->rebuild(cls);
-        timings_ = host_->timings();
+#ifdef SYLVA_RENDER_VULKAN
+        if (!codes_ || codes_->entries != cls.entries()) {
+            dev_.rebuilder.reset();
+            codes_.emplace(ess_codes(grid_, cls.entries(), pool_, grid_border(o_)));
+            codes_ms_ = codes_->ms;
+            dev_.rebuilder.emplace(*dev_.ctx, codes_->volume, cfg_, pool_);
+        }
+        kdtree::Tree t = dev_.rebuilder->rebuild(cls);
+        timings_ = dev_.rebuilder->timings();
         return t;
+#else
+        throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
+#endif
     }
     [[nodiscard]] const kdtree::RebuildTimings& timings() const { return timings_; }
     [[nodiscard]] double codes_ms() const { return codes_ms_; }
+    /// Time of the block ranges' streaming pass (host kd-binned, first build only).
+    [[nodiscard]] double ranges_ms() const { return ranges_ms_; }
+    [[nodiscard]] double total_ms() const { return codes_ms_ + ranges_ms_ + timings_.total_ms(); }
     [[nodiscard]] bool on_device() const { return o_.backend == "vulkan" && o_.index == "kd-binned"; }
     [[nodiscard]] std::string construction() const {
         if (on_device()) return "local boxes on the Vulkan device, splitting on the host";
-        return cfg_.planes == kdtree::Planes::Binned ? "host: binned local boxes" : "host: partial SVTs";
+        return cfg_.planes == kdtree::Planes::Binned ? "host: block ranges, binned local boxes"
+                                                     : "host: segment codes, partial SVTs";
     }
 
 private:
@@ -115,10 +123,28 @@ private:
     Device& dev_;
     kdtree::Config cfg_;
     std::optional<EssCodes> codes_;
-    std::optional<kdtree::Rebuilder<ThreadPool>> host_;
+    std::optional<EssRebuilder<ThreadPool>> host_;
     kdtree::RebuildTimings timings_;
-    double codes_ms_ = 0.0;
+    double codes_ms_ = 0.0, ranges_ms_ = 0.0;
 };
+
+/// The yardstick of the build (issue 15, item 5): one streaming pass over the volume as read
+/// (its own voxel type where sylva-render kept it, else the density grid), classifying every
+/// voxel by a density threshold and counting the occupied ones on all threads, the pass
+/// sylva-kd-bench times beside its builds (volume::count_occupied); the median of three, ms.
+inline double stream_pass_ms(const volume::DensityGrid& g, const volume::Volume* raw, ThreadPool& pool) {
+    std::vector<double> ms;
+    std::uint64_t count = 0;
+    for (int run = 0; run < 3; ++run) {
+        auto t0 = std::chrono::steady_clock::now();
+        count += raw ? volume::count_occupied(volume::classified(*raw, volume::DensityThreshold{0.5f}), pool)
+                     : volume::count_occupied(volume::classified(g, volume::DensityThreshold{0.5f}), pool);
+        ms.push_back(ms_since(t0));
+    }
+    if (count > 3 * g.values.size()) throw Error("stream pass: more occupied voxels than voxels");
+    std::sort(ms.begin(), ms.end());
+    return ms[1];
+}
 
 /// Renders with ESS DVR (the fastest of --repeat frames; the tree is uploaded once).
 inline Frame render(const Options& o, const GridWords& gw, const std::vector<std::uint32_t>& words,
@@ -144,6 +170,7 @@ inline Stats::KdRows::Rebuild row(const std::string& tf, const kdtree::Tree& t, 
     r.depth = t.stats.max_depth;
     r.bytes = bytes;
     r.codes_ms = b.codes_ms();
+    r.ranges_ms = b.ranges_ms();
     r.classify_ms = b.timings().classify_ms;
     r.occupancy_ms = b.timings().occupancy_ms;
     r.split_ms = b.timings().split_ms;
@@ -187,6 +214,7 @@ inline void fill_stats(const Options& o, const volume::DensityGrid& g, const kdt
     k.occupancy_percent = t.stats.percent_occupied();
     k.culled_percent = t.stats.percent_culled();
     k.codes_ms = b.codes_ms();
+    k.ranges_ms = b.ranges_ms();
     k.classify_ms = b.timings().classify_ms;
     k.occupancy_ms = b.timings().occupancy_ms;
     k.split_ms = b.timings().split_ms;
@@ -194,7 +222,7 @@ inline void fill_stats(const Options& o, const volume::DensityGrid& g, const kdt
     s.nodes = t.nodes.size();
     s.leaves = t.leaves.size();
     s.max_depth = t.stats.max_depth;
-    s.build_ms = b.codes_ms() + b.timings().total_ms();
+    s.build_ms = b.total_ms();
     s.bytes = bytes;
 }
 
@@ -218,6 +246,7 @@ inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, 
         s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
     }
     KdBuilder builder(o, g, pool, dev);
+    s.kd.stream_ms = stream_pass_ms(g, raw, pool);
     kdtree::Tree t = builder.rebuild(classifier(o, p.tf));
     auto t0 = std::chrono::steady_clock::now();
     std::vector<std::uint32_t> words = kdtree::encode(t);

@@ -66,15 +66,19 @@ struct Stats {
         std::string builder, depth, classify, construction;
         std::uint64_t voxels = 0, occupied = 0;
         double occupancy_percent = 0, culled_percent = 0;
-        double codes_ms = 0, classify_ms = 0, occupancy_ms = 0, split_ms = 0;
+        double codes_ms = 0, ranges_ms = 0, classify_ms = 0, occupancy_ms = 0, split_ms = 0;
+        /// One streaming pass over the volume as read (read, classify by a threshold, count;
+        /// all threads; sylva-kd-bench's yardstick), timed just before the first build:
+        /// build_ms's yardstick (issue 15, item 5).
+        double stream_ms = 0;
         /// One rebuild of --tf-sequence.
         struct Rebuild {
             std::string tf;
             double occupancy_percent = 0, culled_percent = 0;
             std::size_t nodes = 0, leaves = 0, bytes = 0;
             std::uint32_t depth = 0;
-            double codes_ms = 0, classify_ms = 0, occupancy_ms = 0, split_ms = 0, render_ms = 0;
-            [[nodiscard]] double rebuild_ms() const { return codes_ms + classify_ms + occupancy_ms + split_ms; }
+            double codes_ms = 0, ranges_ms = 0, classify_ms = 0, occupancy_ms = 0, split_ms = 0, render_ms = 0;
+            [[nodiscard]] double rebuild_ms() const { return codes_ms + ranges_ms + classify_ms + occupancy_ms + split_ms; }
         };
         std::vector<Rebuild> rebuilds;
     } kd;
@@ -259,8 +263,10 @@ struct Stats {
            << "  empty culled   " << kd.culled_percent << "% of the empty voxels lie outside every leaf\n"
            << "  leaves         " << leaves << " (" << nodes << " nodes), depth " << max_depth << ", " << bytes
            << " bytes encoded\n"
-           << "  build          segment codes " << kd.codes_ms << " ms, classify " << kd.classify_ms
-           << " ms, SVT/occupancy " << kd.occupancy_ms << " ms, split " << kd.split_ms << " ms\n";
+           << "  build          segment codes " << kd.codes_ms << " ms, block ranges " << kd.ranges_ms
+           << " ms, classify " << kd.classify_ms << " ms, SVT/occupancy " << kd.occupancy_ms << " ms, split "
+           << kd.split_ms << " ms; " << build_ms / std::max(kd.stream_ms, 1e-9) << "x one streaming pass ("
+           << kd.stream_ms << " ms)\n";
         if (kd.rebuilds.empty()) return;
         os << "TF sequence      rebuild after each transfer-function change (occupancy = classify + SVT/local boxes)\n";
         for (const KdRows::Rebuild& r : kd.rebuilds)
@@ -440,9 +446,12 @@ struct Stats {
         j["occupancy_percent"] = kd.occupancy_percent;
         j["culled_percent"] = kd.culled_percent;
         j["codes_ms"] = kd.codes_ms;
+        j["ranges_ms"] = kd.ranges_ms;
         j["classify_ms"] = kd.classify_ms;
         j["occupancy_ms"] = kd.occupancy_ms;
         j["split_ms"] = kd.split_ms;
+        j["stream_ms"] = kd.stream_ms;
+        j["build_over_stream"] = build_ms / std::max(kd.stream_ms, 1e-9);
         nlohmann::ordered_json seq = nlohmann::ordered_json::array();
         for (const KdRows::Rebuild& r : kd.rebuilds)
             seq.push_back({{"tf", r.tf},
@@ -453,6 +462,7 @@ struct Stats {
                            {"max_depth", r.depth},
                            {"bytes", r.bytes},
                            {"codes_ms", r.codes_ms},
+                           {"ranges_ms", r.ranges_ms},
                            {"classify_ms", r.classify_ms},
                            {"occupancy_ms", r.occupancy_ms},
                            {"split_ms", r.split_ms},
