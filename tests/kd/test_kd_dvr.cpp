@@ -473,6 +473,29 @@ TEST_CASE("ess dvr: block ranges and the undecided blocks' voxels give the segme
                 CHECK(ess_w.rebuild(cls).nodes == fresh.nodes);
             }
     }
+    // Infinite densities (allowed; NaN is not) classify as the codes do: +inf as density 1, -inf as 0.
+    volume::DensityGrid inf_grid = volume::sparse_nbody({20, 18, 22}, 3u);
+    // Boxes of them, so that whole neighbourhoods are infinite (one at a corner of the grid).
+    auto fill = [&](uvec3 lo, uvec3 hi, float v) {
+        for (std::uint32_t z = lo.z; z < hi.z; ++z)
+            for (std::uint32_t y = lo.y; y < hi.y; ++y)
+                for (std::uint32_t x = lo.x; x < hi.x; ++x) inf_grid.values[volume::voxel_index(inf_grid.dims, x, y, z)] = v;
+    };
+    fill(uvec3(4, 5, 6), uvec3(9, 10, 11), INFINITY);
+    fill(uvec3(0, 15, 19), uvec3(3, 18, 22), INFINITY);
+    fill(uvec3(12, 1, 9), uvec3(17, 6, 14), -INFINITY);
+    for (const auto& [tf_name, tf] : tfs) {
+        INFO("infinities, " << tf_name);
+        volume::Occupancy ref = occupancy_for(inf_grid, tf, pool);
+        kdtree::Tree t = EssRebuilder<ThreadPool>(inf_grid, kdtree::Config::deep().binned(), pool).rebuild(tf);
+        CHECK(t.nodes == kdtree::build_binned(ref, kdtree::Config::deep().binned(), pool).nodes);
+        std::vector<std::uint32_t> want_words, all_read_words;
+        kdtree::block_words(ref, pool, want_words);
+        uvec3 nb = kdtree::block_counts(inf_grid.dims);
+        ess_block_words(inf_grid, ess_classifier(tf), GridBorder{},
+                        std::vector<std::uint8_t>(std::size_t{nb.x} * nb.y * nb.z, kdtree::kBlockRead), pool, all_read_words);
+        CHECK(all_read_words == want_words);
+    }
     volume::DensityGrid nan_grid = volume::sparse_nbody({20, 20, 20}, 2u);
     nan_grid.values[volume::voxel_index(nan_grid.dims, 11, 3, 17)] = std::nanf("");
     CHECK_THROWS_WITH(ess_block_ranges(nan_grid, pool), Catch::Contains("NaN density"));

@@ -633,9 +633,11 @@ struct EssBlockRowPass {
                             *lc = &ylo[(std::size_t{c} * 8u + r) * w];
                 const float *ha = &yhi[(std::size_t{a} * 8u + r) * w], *hb = &yhi[(std::size_t{b} * 8u + r) * w],
                             *hc = &yhi[(std::size_t{c} * 8u + r) * w];
+                // Held in [-1, 2]: the buckets clamp to [0, 1] anyway, and an infinite density
+                // then still compares below a run's end of +inf.
                 for (std::uint32_t x = 0; x < w; ++x) {
-                    dlo[x] = std::min(std::min(la[x], lb[x]), lc[x]) - eps;
-                    dhi[x] = std::max(std::max(ha[x], hb[x]), hc[x]) + eps;
+                    dlo[x] = std::clamp(std::min(std::min(la[x], lb[x]), lc[x]) - eps, -1.0f, 2.0f);
+                    dhi[x] = std::clamp(std::max(std::max(ha[x], hb[x]), hc[x]) + eps, -1.0f, 2.0f);
                 }
                 if (y == 0u || z == 0u || y + 1u == d.y || z + 1u == d.z) {  // a face of the grid: the whole row
                     for (std::uint32_t x = 0; x < w; ++x) dlo[x] = std::min(dlo[x], border_lo), dhi[x] = std::max(dhi[x], border_hi);
