@@ -14,6 +14,7 @@
 
 #include <sylva/bih/lod.hpp>
 #include <sylva/bih/validate.hpp>
+#include <sylva/volume/nrrd.hpp>
 
 using namespace sylva;
 using Catch::Matchers::Contains;
@@ -60,4 +61,14 @@ TEST_CASE("lod/nan_root_box: a NaN density bound becomes the widest node range, 
     CHECK(bih::detail::unorm16_bound(std::numeric_limits<double>::quiet_NaN(), true) == 65535u);
     CHECK(bih::detail::unorm16_bound(0.5, false) == 32767u);
     CHECK(bih::detail::unorm16_bound(0.5, true) == 32768u);
+}
+
+TEST_CASE("nrrd_attached/spacing_past_float: a spacing finite as a double but not as a float is refused",
+          "[fuzz][nrrd]") {
+    // fuzz_nrrd_attached (found by CI's 20-second fuzz run): "spacings: 1 1 444...442" (91
+    // digits) passed the double's finite-and-positive check and became an infinite float
+    // spacing (a double beyond the float range, converted: undefined behaviour); a tiny one
+    // became 0. The spacings and space directions must now lie in the positive normal floats.
+    CHECK_THROWS_WITH(volume::read_nrrd(std::string(SYLVA_FUZZ_REGRESSIONS) + "/nrrd_attached/spacing_past_float"),
+                      Contains("not a finite positive spacing"));
 }

@@ -90,6 +90,10 @@ TEST_CASE("NRRD with attached raw data, spacings, comments and key/value pairs",
     Volume v = read_nrrd(dir / "a.nrrd");
     check_ramp_u8(v);
     CHECK(v.spacing == vec3(0.5f, 1.0f, 1.4f));
+    SECTION("spacings at the ends of the float range are kept") {
+        write_file(dir / "c.nrrd", u8_header + "spacings: 3e38 1.2e-38 1\n\n" + as_bytes(ramp_u8()));
+        CHECK(read_nrrd(dir / "c.nrrd").spacing == vec3(3e38f, 1.2e-38f, 1.0f));
+    }
     SECTION("CRLF header lines and every version of the magic") {
         for (char version : std::string("12345")) {
             std::string h = std::string("NRRD000") + version +
@@ -288,6 +292,12 @@ TEST_CASE("malformed NRRD headers are errors that name the problem", "[nrrd][err
     fails_with(u8_header + "spacings: 1 -2 1\n\n" + data, "finite positive spacing");
     fails_with(u8_header + "spacings: 1 1\n\n" + data, "2 values for 3 axes");
     fails_with(u8_header + "spacings: 1 nan 1\n\n" + data, "finite positive spacing");
+    // Finite as doubles, but infinite or zero as floats (fuzz_regressions/nrrd_attached/spacing_past_float).
+    fails_with(u8_header + "spacings: 1 1 1e39\n\n" + data, "finite positive spacing");
+    fails_with(u8_header + "spacings: 1 1e-39 1\n\n" + data, "finite positive spacing");
+    fails_with(u8_header + "spacings: 1e-50 1 1\n\n" + data, "finite positive spacing");
+    fails_with(u8_header + "space directions: (1,0,0) (0,4e38,0) (0,0,1)\n\n" + data, "length outside");
+    fails_with(u8_header + "space directions: (1,0,0) (0,1,0) (0,0,1e-40)\n\n" + data, "length outside");
     fails_with(u8_header + "type: uchar\n\n" + data, "already given on line 3");
     fails_with(u8_header + "this line has no colon\n\n" + data, "line 7");
     fails_with(u8_header + "nospace:value\n\n" + data, "is not 'field: value'");

@@ -306,6 +306,13 @@ inline Dims grid_dims(const Header& h) {
     return Dims(sizes[a], sizes[a + 1], sizes[a + 2]);
 }
 
+/// True when a spacing read as a double is a positive normal float: from the smallest normal
+/// float to the largest (a finite double beyond them would become infinity or 0 as a float).
+inline bool float_spacing(double v) {
+    return v >= static_cast<double>(std::numeric_limits<float>::min()) &&
+           v <= static_cast<double>(std::numeric_limits<float>::max());
+}
+
 /// Spacing from `spacings` (the last three axes); nullopt when the field is absent.
 inline std::optional<vec3> spacings(const Header& h, std::size_t axes) {
     const Field* f = optional_field(h, "spacings");
@@ -317,8 +324,9 @@ inline std::optional<vec3> spacings(const Header& h, std::size_t axes) {
     vec3 s;
     for (int i = 0; i < 3; ++i) {
         double v = 0.0;
-        if (!parse_double(w[axes - 3 + i], v) || !std::isfinite(v) || !(v > 0.0))
-            throw field_error(h, *f, "spacings", "'" + w[axes - 3 + i] + "' is not a finite positive spacing");
+        if (!parse_double(w[axes - 3 + i], v) || !float_spacing(v))
+            throw field_error(h, *f, "spacings",
+                              "'" + w[axes - 3 + i] + "' is not a finite positive spacing (1.2e-38 to 3.4e38)");
         s[i] = static_cast<float>(v);
     }
     return s;
@@ -375,8 +383,11 @@ inline std::optional<vec3> direction_spacing(const Header& h, std::size_t axes) 
                 throw field_error(h, *f, "space directions",
                                   "axis " + std::to_string(i) + " is not along the space axis " + std::to_string(i) +
                                       " (only diagonal directions, i.e. axis-aligned grids, are supported)");
-        if (!(diag > 0.0) || diag > 3.0e38)
+        if (!(diag > 0.0))
             throw field_error(h, *f, "space directions", "axis " + std::to_string(i) + " has zero length");
+        if (!float_spacing(diag))
+            throw field_error(h, *f, "space directions",
+                              "axis " + std::to_string(i) + " has a length outside 1.2e-38 to 3.4e38");
         s[i] = static_cast<float>(diag);
     }
     return s;
