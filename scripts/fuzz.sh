@@ -106,7 +106,7 @@ done
 if ((failed)); then
   echo "fuzz.sh: a target failed; its log is in $logs/, the input in $build/crashes/" >&2
   for t in "${targets[@]}"; do
-    [[ $(cat "$logs/$t.status" 2>/dev/null || echo 1) == 0 ]] || { echo "---- $t" >&2; grep -E 'ERROR|SUMMARY|check failed|Test unit written' "$logs/$t.log" | head -8 >&2; }
+    [[ $(cat "$logs/$t.status" 2>/dev/null || echo 1) == 0 ]] || { echo "---- $t" >&2; grep -E 'ERROR|SUMMARY|check failed|Test unit written|Base64' "$logs/$t.log" | head -8 >&2; }
   done
 fi
 exit $failed
