@@ -452,14 +452,12 @@ inline std::uint32_t full_block_word(volume::Dims dims, uvec3 b) { return shared
 
 namespace detail {
 
-/// Words of the row of blocks (by, bz) under `verdicts`: decided blocks without reading, runs of
-/// blocks to read as sub-rows of the grid.
-/// (`verdicts` null: every block is read.) The one host loop of the 8^3 pass; per block it runs
-/// the shader's accumulation (sylva_kd_box_accumulate, sylva_kd_box_acc_word).
-template <volume::OccupancySource S>
-void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, const std::uint8_t* verdicts,
-                     std::vector<std::uint8_t>& row, std::vector<BlockAccumulator>& acc, std::uint32_t* words) {
-    volume::Dims d = src.dims;
+/// The row of blocks (by, bz) of a grid of `d` voxels under `verdicts` (null: every block is
+/// read): the words of decided blocks written without reading, each run [bx, end) of blocks to
+/// read handed to read_run(bx, end), which writes their words.
+template <class ReadRun>
+void for_each_block_run(volume::Dims d, uvec3 nb, std::uint32_t by, std::uint32_t bz, const std::uint8_t* verdicts,
+                        std::uint32_t* words, ReadRun&& read_run) {
     std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
     auto read = [&](std::uint32_t bx) { return verdicts == nullptr || verdicts[first + bx] == kBlockRead; };
     for (std::uint32_t bx = 0; bx < nb.x;) {
@@ -470,6 +468,21 @@ void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz,
         }
         std::uint32_t end = bx + 1;
         while (end < nb.x && read(end)) ++end;
+        read_run(bx, end);
+        bx = end;
+    }
+}
+
+/// Words of the row of blocks (by, bz) under `verdicts` (for_each_block_run): runs of blocks to
+/// read as sub-rows of the grid (`verdicts` null: every block is read). The one host loop of the
+/// 8^3 pass; per block it runs the shader's accumulation (sylva_kd_box_accumulate,
+/// sylva_kd_box_acc_word).
+template <volume::OccupancySource S>
+void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz, const std::uint8_t* verdicts,
+                     std::vector<std::uint8_t>& row, std::vector<BlockAccumulator>& acc, std::uint32_t* words) {
+    volume::Dims d = src.dims;
+    std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
+    for_each_block_run(d, nb, by, bz, verdicts, words, [&](std::uint32_t bx, std::uint32_t end) {
         std::uint32_t x0 = bx * 8u, x1 = std::min(d.x, end * 8u);
         std::fill(acc.begin(), acc.begin() + (end - bx), shared::sylva_kd_box_acc_zero());
         for (std::uint32_t z = bz * 8u; z < std::min(d.z, bz * 8u + 8u); ++z)
@@ -480,8 +493,7 @@ void block_row_words(const S& src, uvec3 nb, std::uint32_t by, std::uint32_t bz,
                                                     y & 7u, z & 7u);
             }
         for (std::uint32_t k = 0; k < end - bx; ++k) words[first + bx + k] = shared::sylva_kd_box_acc_word(acc[k], false);
-        bx = end;
-    }
+    });
 }
 
 }  // namespace detail

@@ -133,6 +133,10 @@ inline EssClassifier ess_threshold_classifier(float threshold, std::uint32_t ent
 
 namespace detail {
 
+/// The margin around a neighbourhood's density range, 2^-20: above the rounding of the three
+/// trilinear lerps a sample between the voxels takes.
+inline constexpr float kEssEps = 1.0f / 1048576.0f;
+
 inline double ess_ms_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -162,7 +166,7 @@ struct EssBorder {
 inline EssBorder ess_border(const GridBorder& b, std::uint32_t entries) {
     b.check();
     if (b.mode == BorderMode::Clamp) return {};
-    constexpr float eps = 1.0f / 1048576.0f;
+    constexpr float eps = kEssEps;
     EssBucketMap bucket(entries);
     return {bucket(b.value - eps), bucket(b.value + eps)};
 }
@@ -193,7 +197,7 @@ void ess_filter_pass(const std::vector<std::uint8_t>& slo, const std::vector<std
 template <Executor X, class Density>
 void ess_rows(const Density& density, volume::Dims dims, std::uint32_t entries, EssBorder border,
               std::vector<std::uint8_t>& lo, std::vector<std::uint8_t>& hi, X& exec) {
-    constexpr float eps = 1.0f / 1048576.0f;  // 2^-20: above the rounding of three lerps
+    constexpr float eps = kEssEps;
     std::uint32_t nx = dims.x;
     std::size_t rows = std::size_t{dims.y} * dims.z;
     EssBucketMap bucket(entries);
@@ -454,7 +458,7 @@ EssBlockRanges ess_block_ranges(const GridWords& g, X& exec) {
 /// blocks on a face of the grid. A decided block's voxels all have the verdict's occupancy.
 inline void ess_block_verdicts(const EssBlockRanges& r, const EssClassifier& cls, const GridBorder& border,
                                std::vector<std::uint8_t>& out) {
-    constexpr float eps = 1.0f / 1048576.0f;
+    constexpr float eps = detail::kEssEps;
     detail::EssBucketMap bucket(cls.entries());
     detail::EssBorder eb = detail::ess_border(border, cls.entries());
     out.assign(r.lo.size(), kdtree::kBlockRead);
@@ -537,27 +541,15 @@ struct EssBlockRowPass {
                     const GridBorder& border, const std::uint8_t* verdict, std::uint32_t* w)
         : rows(r), cls(c), bucket(b), runs(v), verdicts(verdict), nb(kdtree::block_counts(r.dims)), words(w),
           scratch(r.dims.x), dlo(r.dims.x), dhi(r.dims.x), occ(r.dims.x), acc(nb.x) {
-        constexpr float eps = 1.0f / 1048576.0f;
+        constexpr float eps = kEssEps;
         bool clamp = border.mode == BorderMode::Clamp;
         border_lo = clamp ? std::numeric_limits<float>::infinity() : border.value - eps;
         border_hi = clamp ? -std::numeric_limits<float>::infinity() : border.value + eps;
     }
 
     void run(std::uint32_t by, std::uint32_t bz) {
-        const volume::Dims d = rows.dims;
-        std::size_t first = std::size_t{nb.x} * (by + std::size_t{nb.y} * bz);
-        for (std::uint32_t bx = 0; bx < nb.x;) {
-            std::uint8_t v = verdicts[first + bx];
-            if (v != kdtree::kBlockRead) {
-                words[first + bx] = v == kdtree::kBlockFull ? kdtree::full_block_word(d, uvec3(bx, by, bz)) : 0u;
-                ++bx;
-                continue;
-            }
-            std::uint32_t end = bx + 1;
-            while (end < nb.x && verdicts[first + end] == kdtree::kBlockRead) ++end;
-            read_run(bx, end, by, bz);
-            bx = end;
-        }
+        kdtree::detail::for_each_block_run(rows.dims, nb, by, bz, verdicts, words,
+                                           [&](std::uint32_t bx, std::uint32_t end) { read_run(bx, end, by, bz); });
     }
 
     /// occ[0, w) of the voxels whose neighbourhood density ranges, eps included, are
@@ -576,7 +568,7 @@ struct EssBlockRowPass {
     }
 
     void read_run(std::uint32_t bx, std::uint32_t end, std::uint32_t by, std::uint32_t bz) {
-        constexpr float eps = 1.0f / 1048576.0f;
+        constexpr float eps = kEssEps;
         const volume::Dims d = rows.dims;
         std::uint32_t x0 = bx * 8u, x1 = std::min(d.x, end * 8u), w = x1 - x0;
         std::uint32_t y0 = by * 8u, y1 = std::min(d.y, y0 + 8u), z0 = bz * 8u, z1 = std::min(d.z, z0 + 8u);
