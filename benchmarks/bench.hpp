@@ -34,6 +34,15 @@ struct Options {
     /// --cases: which parts run (build and encode run with any of build, first, all, clustered:
     /// the traversals need them); moving runs only when named
     bool run_build = true, run_first = true, run_all = true, run_clustered = true, run_moving = false;
+    /// --cold-runs: fresh processes per builder and case that each time one first build (cold
+    /// memory, issue 15 item 2); the median is reported; 0 = none (--quick: 1)
+    std::size_t cold_runs = 3;
+    bool load = false;  ///< --load: every case again beside a busy process on every core
+
+    // Hidden options: this executable run as one of its helper processes (processes.hpp).
+    std::string cold_child;                      ///< --cold-child IMPL: time one cold build, print it
+    std::string cold_distribution = "uniform";   ///< --cold-distribution: the child's spheres
+    bool busy_child = false;                     ///< --busy-child: the competing load of --load
 
     /// Runs of each build: at least 9 (within the build budget), as one build at 10^4 spheres
     /// takes 1-2 ms and medians of 3 such builds scattered by +-30 % between runs.
@@ -60,6 +69,8 @@ std::vector<sylva::Sphere> make_spheres(std::size_t n, Distribution d, std::uint
 std::vector<sylva::Ray> make_rays(std::size_t n, std::uint32_t seed);
 /// "1e6" for powers of ten, the plain number otherwise.
 std::string size_label(std::size_t n);
+/// The seed of the sphere set of `n` spheres (the same in the parent and in the cold children).
+inline std::uint32_t sphere_seed(std::size_t n) { return static_cast<std::uint32_t>(n) ^ 0x5EEDu; }
 
 // ---- per-ray results, compared across implementations ---------------------------------------
 
@@ -99,6 +110,12 @@ inline double ms_since(Clock::time_point t0) {
 }
 /// Median of the samples (mean of the middle two for an even count).
 double median(std::vector<double> samples);
+/// The steady-state samples: all but the first, which pays for first touches of memory and
+/// caches in this process (when there is only one, that one).
+inline std::vector<double> steady(std::vector<double> samples) {
+    if (samples.size() > 1) samples.erase(samples.begin());
+    return samples;
+}
 
 /// Wall time of one call of f, in milliseconds.
 template <class F>

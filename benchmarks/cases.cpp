@@ -28,7 +28,8 @@ struct Entrant {
 };
 
 /// Runs every entrant's pass opt.runs times, interleaved (run r of each before run r + 1 of
-/// any), so that load from elsewhere on the machine hits all of them alike; records rays/s.
+/// any), so that load from elsewhere on the machine hits all of them alike; records rays/s: the
+/// steady state (the median of the passes after the first) and the first pass in the process.
 template <class R>
 void race(const Context& c, std::vector<Entrant<R>>& entrants, const std::string& base, std::size_t rays) {
     for (std::size_t r = 0; r < c.opt.runs; ++r)
@@ -36,9 +37,12 @@ void race(const Context& c, std::vector<Entrant<R>>& entrants, const std::string
             e.result = {};
             e.ms.push_back(time_ms([&] { e.result = e.pass(); }));
         }
-    for (auto& e : entrants)
-        c.report.add(e.case_name, e.impl, "rays_per_s", per_s(static_cast<double>(rays), median(e.ms)), "rays/s",
-                     e.impl == "embree" ? "" : base, e.variant ? e.variant->name : "");
+    for (auto& e : entrants) {
+        const std::string peer = e.impl == "embree" ? "" : base, config = e.variant ? e.variant->name : "";
+        const double count = static_cast<double>(rays);
+        c.report.add(e.case_name, e.impl, "rays_per_s", per_s(count, median(steady(e.ms))), "rays/s", peer, config);
+        c.report.add(e.case_name, e.impl, "rays_per_s_first_pass", per_s(count, e.ms.front()), "rays/s", peer, config);
+    }
 }
 
 /// The first rays of the set that a traversal case traces: all of them, or (with a pass
@@ -100,11 +104,11 @@ void build_race(const Context& c, std::vector<Builder>& builders) {
 void record_embree_build(const Context& c, const Builder& b, const std::vector<double>& setup, std::size_t n,
                          const std::string& build) {
 #if SYLVA_BENCH_EMBREE
-    double ms = median(b.ms);
+    double ms = median(steady(b.ms));
     c.report.add(build, "embree", "build_ms", ms, "ms");
     c.report.add(build, "embree", "build_elements_per_s", per_s(static_cast<double>(n), ms), "elements/s");
     c.report.add(build, "embree", "runs", static_cast<double>(b.ms.size()), "runs");
-    c.report.add(build, "embree", "setup_ms", median(setup), "ms");
+    c.report.add(build, "embree", "setup_ms", median(steady(setup)), "ms");
     c.report.add(build, "embree", "bytes", static_cast<double>(c.embree->scene_bytes()), "bytes");
 #else
     (void)c, (void)b, (void)setup, (void)n, (void)build;
@@ -131,15 +135,17 @@ SylvaIndex build_all(const Context& c, const std::vector<sylva::Sphere>& spheres
 #endif
     build_race(c, bs);
     const std::string build = "build/" + label;
-    record_sylva_build(c.report, build, build, bs[0].ms, idx.tree, "fixed16");
-    record_sylva_build(c.report, build + "/leaf4", build, bs[1].ms, idx.leaf4_tree, "fixed16-leaf4");
-    record_sylva_build(c.report, build + "/query", build, bs[2].ms, idx.query_tree, "fixed16-query");
-    record_octree_build(c.report, build + "/octree", build, bs[3].ms, idx.octree_tree);
-    record_kd_build(c.report, build + "/kd", build, bs[4].ms, idx.kd_tree);
+    // The steady state: the runs after each builder's first in this process (cold.cpp times
+    // first builds in fresh processes).
+    record_sylva_build(c.report, build, build, steady(bs[0].ms), idx.tree, "fixed16");
+    record_sylva_build(c.report, build + "/leaf4", build, steady(bs[1].ms), idx.leaf4_tree, "fixed16-leaf4");
+    record_sylva_build(c.report, build + "/query", build, steady(bs[2].ms), idx.query_tree, "fixed16-query");
+    record_octree_build(c.report, build + "/octree", build, steady(bs[3].ms), idx.octree_tree);
+    record_kd_build(c.report, build + "/kd", build, steady(bs[4].ms), idx.kd_tree);
     if (bs.size() > 5) record_embree_build(c, bs[5], setup, spheres.size(), build);
     bench_sylva_encode(idx, spheres, c.opt, c.report, label, c.pool);
     // The wide tree's whole build: the leaf4 BIH it collapses plus the collapse (medians).
-    double wide_ms = median(bs[1].ms) + median(idx.wide_ms);
+    double wide_ms = median(steady(bs[1].ms)) + median(steady(idx.wide_ms));
     c.report.add(build + "/wide", "sylva", "build_ms", wide_ms, "ms", build, "wide");
     c.report.add(build + "/wide", "sylva", "build_elements_per_s", per_s(static_cast<double>(spheres.size()), wide_ms),
                  "elements/s", build, "wide");
@@ -213,10 +219,11 @@ void all_hits(const Context& c, const SylvaIndex& idx, const std::vector<sylva::
 
 }  // namespace
 
-void run_case(const Context& c, std::size_t n, Distribution d, bool stream) {
-    const std::string label = size_label(n) + "/" + name(d);
+void run_case(const Context& c, std::size_t n, Distribution d, bool stream, bool loaded) {
+    const std::string label = (loaded ? "load/" : "") + size_label(n) + "/" + name(d);
     std::cerr << "sylva-bench: " << label << " ..." << std::endl;
-    std::vector<sylva::Sphere> spheres = make_spheres(n, d, static_cast<std::uint32_t>(n) ^ 0x5EEDu);
+    if (!loaded) cold_builds(c, n, d, label);
+    std::vector<sylva::Sphere> spheres = make_spheres(n, d, sphere_seed(n));
     SylvaIndex idx = build_all(c, spheres, label);
     if (c.opt.run_first) first_hit(c, idx, spheres, label);
     if (c.opt.run_all) all_hits(c, idx, spheres, label);

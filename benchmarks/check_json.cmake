@@ -1,6 +1,8 @@
 # check_json.cmake -- checks sylva-bench's JSON output: a non-empty array of records with
 # "case", "impl", "metric", "unit" (strings) and "value" (a number).
-#   cmake -DJSON=<file> -P check_json.cmake
+#   cmake -DJSON=<file> [-DMETRICS=a|b] [-DCASES=x|y] -P check_json.cmake
+# METRICS: metrics that must each appear in at least one record; CASES: strings that must each
+# appear in at least one record's case name.
 cmake_minimum_required(VERSION 3.19)  # string(JSON)
 
 if(NOT DEFINED JSON OR NOT EXISTS "${JSON}")
@@ -21,6 +23,8 @@ endif()
 
 math(EXPR last "${count} - 1")
 set(impls "")
+set(metrics "")
+set(cases "")
 foreach(i RANGE ${last})
   foreach(key case impl metric unit value)
     string(JSON type ERROR_VARIABLE err TYPE "${text}" ${i} ${key})
@@ -37,6 +41,23 @@ foreach(i RANGE ${last})
   endforeach()
   string(JSON impl GET "${text}" ${i} impl)
   list(APPEND impls "${impl}")
+  string(JSON metric GET "${text}" ${i} metric)
+  list(APPEND metrics "${metric}")
+  string(JSON case_name GET "${text}" ${i} case)
+  list(APPEND cases "${case_name}")
+endforeach()
+string(REPLACE "|" ";" want_metrics "${METRICS}")
+foreach(m IN LISTS want_metrics)
+  if(NOT "${m}" IN_LIST metrics)
+    message(FATAL_ERROR "check_json: no record has the metric \"${m}\"")
+  endif()
+endforeach()
+string(REPLACE "|" ";" want_cases "${CASES}")
+foreach(c IN LISTS want_cases)
+  string(FIND "${cases}" "${c}" at)
+  if(at LESS 0)
+    message(FATAL_ERROR "check_json: no case name contains \"${c}\"")
+  endif()
 endforeach()
 list(REMOVE_DUPLICATES impls)
 if(NOT "sylva" IN_LIST impls)

@@ -52,6 +52,20 @@ void add_options(CLI::App& app, Options& o, std::vector<std::string>& cases) {
         ->type_name("F")
         ->transform(bench_cli::count_in(2, 1000))
         ->capture_default_str();
+    app.add_option("--cold-runs", o.cold_runs,
+                   "fresh processes per builder and case, each timing one first build (cold memory); the median "
+                   "is reported beside the steady state, 0 = none (--quick: 1)")
+        ->type_name("K")
+        ->transform(bench_cli::count_in(0, 100))
+        ->capture_default_str();
+    app.add_flag("--load", o.load,
+                 "run every case a second time beside a busy process on every core (cases named load/...)");
+    // The helper processes (processes.hpp): not for users, so not in --help.
+    app.add_option("--cold-child", o.cold_child)
+        ->group("")
+        ->check(CLI::IsMember({"default", "leaf4", "query", "wide", "octree", "kd", "embree"}));
+    app.add_option("--cold-distribution", o.cold_distribution)->group("")->check(CLI::IsMember({"uniform", "clustered"}));
+    app.add_flag("--busy-child", o.busy_child)->group("");
     app.add_flag("--quick", o.quick,
                  "the small configuration (for smoke tests): sizes 1e4,1e5, 1e5 rays, pass budget 0.2 s, 3 frames, "
                  "unless given");
@@ -69,6 +83,12 @@ const char* kFooter =
     "follow by refit and by rebuild beside Embree's refit and rebuild (as sylva-moving-bench):\n"
     "build, cold and steady update times, the first-hit rate over all --rays after the motion (no\n"
     "--runs, no --pass-seconds cap), first hits checked against brute force.\n"
+    "Cold and steady state: each build case is also timed in --cold-runs fresh processes of this program,\n"
+    "one first build each after a 64-sphere warm-up build (threads started, code loaded; the builder's\n"
+    "memory untouched): build_cold_ms, the median. build_ms, rays_per_s and the other medians are the\n"
+    "steady state: the runs after the first in this process (rays_per_s_first_pass is the first).\n"
+    "--load runs every case again (named load/...) beside a busy process on every core that alternates\n"
+    "integer work with passes over 8 MiB a thread; the ratios under load are in the same tables.\n"
     "Sizes, rays, runs and threads are whole numbers, also written as 1e6 or 2.5e5.\n"
     "Exit status: 0 on success, 1 on an error or when implementations disagree, 2 on bad usage.";
 
@@ -80,6 +100,7 @@ void apply(const CLI::App& app, Options& o, const std::vector<std::string>& case
         if (unset("--rays")) o.rays = 100000;
         if (unset("--pass-seconds")) o.pass_seconds = 0.2;
         if (unset("--frames")) o.frames = 3;
+        if (unset("--cold-runs")) o.cold_runs = 1;
     }
     if (unset("--cases")) return;
     o.run_build = o.run_first = o.run_all = o.run_clustered = o.run_moving = false;

@@ -54,6 +54,13 @@ std::string human(double v) {
     return buf;
 }
 
+/// The throughput metrics of the summary table: steady-state and cold builds, steady-state and
+/// first-pass traversals.
+bool summary_metric(const std::string& m) {
+    return m == "build_elements_per_s" || m == "build_cold_elements_per_s" || m == "rays_per_s" ||
+           m == "rays_per_s_first_pass";
+}
+
 }  // namespace
 
 void Report::write_json(const std::string& path) const {
@@ -100,7 +107,7 @@ void Report::print_table(bool summary) const {
         } else if (!r.peer.empty()) {
             e = find(r.peer, "embree", r.metric);
         }
-        if (summary && (!e || (r.metric != "build_elements_per_s" && r.metric != "rays_per_s"))) continue;
+        if (summary && (!e || !summary_metric(r.metric))) continue;
         std::string name = r.impl == "sylva" || r.impl == "embree" ? r.case_name : r.case_name + " [" + r.impl + "]";
         std::string ratio = e && e->value != 0.0 && r.metric != "runs" ? human(r.value / e->value) : "";
         if (r.impl == "embree")

@@ -36,7 +36,7 @@ std::vector<std::uint32_t> time_encode(const bih::Tree& tree, std::span<const Sp
         words = {};
         return time_ms([&] { words = bih::encode(tree, es, payload, cfg, pool); });
     });
-    double ms = median(ms_all);
+    double ms = median(steady(ms_all));
     report.add(name, "sylva", "encode_ms", ms, "ms", "", config);
     report.add(name, "sylva", "runs", static_cast<double>(ms_all.size()), "runs", "", config);
     report.add(name, "sylva", "encode_nodes_per_s", per_s(static_cast<double>(tree.nodes.size()), ms), "nodes/s", "",
@@ -201,7 +201,7 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
         idx.query_records = {};
         return time_ms([&] { idx.query_records = bih::LeafRecords<Sphere>(idx.query_tree, es, pool); });
     });
-    report.add(enc + "/fixed16-query-records", "sylva", "encode_ms", median(ms), "ms", "", "fixed16-query");
+    report.add(enc + "/fixed16-query-records", "sylva", "encode_ms", median(steady(ms)), "ms", "", "fixed16-query");
     report.add(enc + "/fixed16-query-records", "sylva", "bytes",
                static_cast<double>(idx.query_records.records().size_bytes() + idx.query_records.ids().size_bytes()),
                "bytes", "", "fixed16-query");
@@ -209,7 +209,7 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
         idx.wide = {};
         return time_ms([&] { idx.wide = bih::WideTree<Sphere>(idx.leaf4_tree, es, bih::WideConfig{}, pool); });
     });
-    report.add(enc + "/wide", "sylva", "encode_ms", median(idx.wide_ms), "ms", "", "wide");
+    report.add(enc + "/wide", "sylva", "encode_ms", median(steady(idx.wide_ms)), "ms", "", "wide");
     report.add(enc + "/wide", "sylva", "bytes", static_cast<double>(idx.wide.stats().bytes), "bytes", "", "wide");
     report.add(enc + "/wide", "sylva", "wide_nodes", static_cast<double>(idx.wide.stats().nodes), "nodes", "", "wide");
     report.add(enc + "/wide", "sylva", "wide_leaves", static_cast<double>(idx.wide.stats().leaves), "leaves", "",
@@ -218,13 +218,13 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
         idx.octree = {};
         return time_ms([&] { idx.octree = sylva::octree::encode_elements(idx.octree_tree); });
     });
-    report.add(enc + "/octree", "sylva", "encode_ms", median(oct_ms), "ms", "", "octree");
+    report.add(enc + "/octree", "sylva", "encode_ms", median(steady(oct_ms)), "ms", "", "octree");
     report.add(build + "/octree", "sylva", "bytes", static_cast<double>(idx.octree.size() * 4), "bytes", build, "octree");
     auto kd_ms = samples(opt.runs, opt.encode_budget_ms(), [&] {
         idx.kd = {};
         return time_ms([&] { idx.kd = sylva::kdtree::encode_elements(idx.kd_tree); });
     });
-    report.add(enc + "/kd", "sylva", "encode_ms", median(kd_ms), "ms", "", "kd");
+    report.add(enc + "/kd", "sylva", "encode_ms", median(steady(kd_ms)), "ms", "", "kd");
     report.add(build + "/kd", "sylva", "bytes", static_cast<double>(idx.kd.size() * 4), "bytes", build, "kd");
     report.add(build, "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.fixed16)), "bytes", build, "fixed16");
     report.add(build + "/leaf4", "sylva", "bytes", static_cast<double>(bih::encoded_bytes(idx.leaf4)), "bytes", build,
