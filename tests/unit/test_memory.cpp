@@ -1,9 +1,11 @@
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <numeric>
 
 #include <sylva/core/memory.hpp>
+#include <unistd.h>
 
 using namespace sylva;
 
@@ -56,4 +58,18 @@ TEST_CASE("small blocks come from operator new, 64-byte aligned; buffers do not 
 TEST_CASE("an absurd size is std::bad_alloc, not a wrapped small block", "[memory]") {
     memory::LargeAllocator<double> alloc;
     CHECK_THROWS_AS(alloc.allocate(SIZE_MAX / 4), std::bad_alloc);
+}
+
+TEST_CASE("the default cache holds a rebuild of the largest default BIH the benchmarks build", "[memory]") {
+    // 4 GiB, at most a quarter of the physical memory, at least 256 MiB (memory.hpp). A default
+    // BIH over 10^7 spheres frees 1.7 GB per rebuild; the former 1 GiB let every rebuild map
+    // fresh memory.
+    const std::size_t gib = std::size_t{1} << 30;
+    long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+    REQUIRE(pages > 0);
+    const std::size_t quarter = static_cast<std::size_t>(pages) / 4 * static_cast<std::size_t>(page);
+    const std::size_t want = std::max(std::min(4 * gib, quarter), std::size_t{256} << 20);
+    CHECK(memory::default_cache_bytes() == want);
+    CHECK(memory::Config{}.cache_bytes == want);
+    if (quarter >= 2 * gib) CHECK(memory::default_cache_bytes() >= 2 * gib);  // this project's 24 GiB machines
 }

@@ -9,7 +9,15 @@
 //      advised MADV_HUGEPAGE (Debian's default THP mode is "madvise", so without the advice
 //      the kernel uses 4 KiB pages): one fault per 2 MiB. Measured on the same machine, 400 MB:
 //      first touch 205 ms with 4 KiB pages, 54 ms with huge pages (the very first huge-page
-//      mapping of a process can cost more while the kernel compacts memory).
+//      mapping of a process can cost more while the kernel compacts memory). On a machine that
+//      has run for hours it depends on where the pages come from: these machines are
+//      Firecracker guests with free page reporting (virtio_balloon, page_reporting_order=11):
+//      free blocks of 8 MiB and more are handed back to the host, and the next use of such
+//      memory faults on the host again. Huge pages are carved from those blocks, 4 KiB pages
+//      mostly from recycled small ones; measured on one such machine (README, "Cold and steady
+//      state"), 400 MB took 130-230 ms with 4 KiB pages and either 25-40 ms or 490-710 ms
+//      advised. The advice stays (it is the large win on a new machine); what holds on every
+//      machine is touching less and touching it once:
 //   2. Keeping capacity: freed large blocks go to a process-wide cache (bounded by
 //      Config::cache_bytes) and the next large allocation of a similar size reuses one, whose
 //      pages are already faulted in. So rebuilding a tree of the same size every frame touches
@@ -31,6 +39,9 @@
 #include <unordered_map>
 #include <vector>
 
+#if defined(__unix__)
+#include <unistd.h>
+#endif
 #if defined(__linux__)
 #include <sys/mman.h>
 #define SYLVA_MEMORY_MMAP 1
@@ -48,11 +59,24 @@ inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 /// a block is freed the way it was allocated whatever the settings do meanwhile.
 inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
 
+/// The default Config::cache_bytes: 4 GiB, at most a quarter of the physical memory.
+inline std::size_t default_cache_bytes() {
+    std::size_t cap = std::size_t{4} << 30;
+#if defined(__unix__)
+    long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+    if (pages > 0 && page > 0) cap = std::min(cap, static_cast<std::size_t>(pages) / 4 * static_cast<std::size_t>(page));
+#endif
+    return std::max(cap, std::size_t{256} << 20);
+}
+
 /// Settings of the large-block allocator (process-wide).
 struct Config {
-    /// Bytes of freed large blocks kept for reuse (0 = return every block to the system). 1 GiB
-    /// holds a 10^7-element BIH's nodes and scratch; the cache gives memory back beyond it.
-    std::size_t cache_bytes = std::size_t{1} << 30;
+    /// Bytes of freed large blocks kept for reuse (0 = return every block to the system); the
+    /// cache gives memory back beyond it. Default: 4 GiB, or a quarter of the physical memory
+    /// where that is less (default_cache_bytes()). A rebuild of the default BIH over 10^7
+    /// spheres frees and reallocates 1.7 GB (1.37 GB of nodes, the scratch): with the former
+    /// 1 GiB every such rebuild mapped fresh memory (steady builds 1.35-2.9 s instead of 1.5 s).
+    std::size_t cache_bytes = default_cache_bytes();
     /// Advise MADV_HUGEPAGE on large blocks.
     bool huge_pages = true;
 };
