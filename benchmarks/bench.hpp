@@ -42,7 +42,7 @@ struct Options {
     // Hidden options: this executable run as one of its helper processes (processes.hpp).
     std::string cold_child;                      ///< --cold-child IMPL: time one cold build, print it
     std::string cold_distribution = "uniform";   ///< --cold-distribution: the child's spheres
-    bool busy_child = false;                     ///< --busy-child: the competing load of --load
+    long busy_child = 0;  ///< --busy-child PID: the competing load of --load, started by process PID
 
     /// Runs of each build: at least 9 (within the build budget), as one build at 10^4 spheres
     /// takes 1-2 ms and medians of 3 such builds scattered by +-30 % between runs.

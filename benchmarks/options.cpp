@@ -65,7 +65,7 @@ void add_options(CLI::App& app, Options& o, std::vector<std::string>& cases) {
         ->group("")
         ->check(CLI::IsMember({"default", "leaf4", "query", "wide", "octree", "kd", "embree"}));
     app.add_option("--cold-distribution", o.cold_distribution)->group("")->check(CLI::IsMember({"uniform", "clustered"}));
-    app.add_flag("--busy-child", o.busy_child)->group("");
+    app.add_option("--busy-child", o.busy_child)->group("")->check(CLI::PositiveNumber);
     app.add_flag("--quick", o.quick,
                  "the small configuration (for smoke tests): sizes 1e4,1e5, 1e5 rays, pass budget 0.2 s, 3 frames, "
                  "unless given");

@@ -100,7 +100,7 @@ std::string run_child(const std::string& program, const std::vector<std::string>
 }
 
 CompetingLoad::CompetingLoad(std::size_t threads) {
-    pid_ = spawn(self_executable(), {"--busy-child", "--threads", std::to_string(threads)}, -1, -1);
+    pid_ = spawn(self_executable(), {"--busy-child", std::to_string(getpid()), "--threads", std::to_string(threads)}, -1, -1);
 }
 
 CompetingLoad::~CompetingLoad() { stop(); }
@@ -120,9 +120,9 @@ double CompetingLoad::stop() {
     return seconds(use.ru_utime) + seconds(use.ru_stime);
 }
 
-int busy_child_main(std::size_t threads) {
-    prctl(PR_SET_PDEATHSIG, SIGKILL);  // never outlive the measurement
-    if (getppid() == 1) return 0;      // the parent is already gone
+int busy_child_main(long parent, std::size_t threads) {
+    prctl(PR_SET_PDEATHSIG, SIGKILL);         // never outlive the measurement
+    if (getppid() != parent) return 0;        // the parent is already gone
     auto busy = [] {
         constexpr std::size_t kWords = (8u << 20) / sizeof(std::uint64_t);
         std::unique_ptr<std::uint64_t[]> buf(new std::uint64_t[kWords]());

@@ -37,8 +37,9 @@ private:
     pid_t pid_ = -1;
 };
 
-/// The body of `--busy-child`: runs `threads` busy threads until killed. Never returns normally.
-int busy_child_main(std::size_t threads);
+/// The body of `--busy-child PID`: runs `threads` busy threads until killed, or returns at once
+/// when process `parent` (the one that started it) is gone already.
+int busy_child_main(long parent, std::size_t threads);
 
 }  // namespace bench
 

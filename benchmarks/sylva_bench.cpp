@@ -143,7 +143,7 @@ int main(int argc, char** argv) {
     bench::Options opt;
     if (std::optional<int> status = bench::parse_options(argc, argv, opt)) return *status;
     try {
-        if (opt.busy_child) return bench::busy_child_main(opt.threads ? opt.threads : 1);
+        if (opt.busy_child) return bench::busy_child_main(opt.busy_child, opt.threads ? opt.threads : 1);
         if (!opt.cold_child.empty()) return bench::cold_child_main(opt);
         return run(opt);
     } catch (const std::exception& e) {
