@@ -109,13 +109,13 @@ double CompetingLoad::stop() {
     if (pid_ <= 0) return -1.0;
     const pid_t pid = pid_;
     pid_ = -1;
-    bool running = waitpid(pid, nullptr, WNOHANG) == 0;  // still busy: nothing to reap yet
+    // Reaped here when it stopped by itself (then never signalled: its pid may be reused).
+    if (waitpid(pid, nullptr, WNOHANG) != 0) return -1.0;
     kill(pid, SIGKILL);
     int status = 0;
     struct rusage use {};
     while (wait4(pid, &status, 0, &use) < 0)
         if (errno != EINTR) return -1.0;
-    if (!running) return -1.0;
     auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
     return seconds(use.ru_utime) + seconds(use.ru_stime);
 }
