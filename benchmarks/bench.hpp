@@ -5,6 +5,7 @@
 #ifndef SYLVA_BENCH_BENCH_HPP
 #define SYLVA_BENCH_BENCH_HPP
 
+#include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -116,6 +117,9 @@ inline std::vector<double> steady(std::vector<double> samples) {
     if (samples.size() > 1) samples.erase(samples.begin());
     return samples;
 }
+
+/// A rate: `count` things in `ms` milliseconds, per second.
+inline double per_s(double count, double ms) { return count / (std::max(ms, 1e-6) / 1000.0); }
 
 /// Wall time of one call of f, in milliseconds.
 template <class F>

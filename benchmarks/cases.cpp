@@ -14,8 +14,6 @@ namespace bench {
 
 namespace {
 
-double per_s(double count, double ms) { return count / (std::max(ms, 1e-6) / 1000.0); }
-
 /// One implementation's pass in a race: its case, the pass, its last result and its times.
 template <class R>
 struct Entrant {
@@ -104,10 +102,11 @@ void build_race(const Context& c, std::vector<Builder>& builders) {
 void record_embree_build(const Context& c, const Builder& b, const std::vector<double>& setup, std::size_t n,
                          const std::string& build) {
 #if SYLVA_BENCH_EMBREE
-    double ms = median(steady(b.ms));
+    const std::vector<double> runs = steady(b.ms);
+    double ms = median(runs);
     c.report.add(build, "embree", "build_ms", ms, "ms");
     c.report.add(build, "embree", "build_elements_per_s", per_s(static_cast<double>(n), ms), "elements/s");
-    c.report.add(build, "embree", "runs", static_cast<double>(b.ms.size()), "runs");
+    c.report.add(build, "embree", "runs", static_cast<double>(runs.size()), "runs");
     c.report.add(build, "embree", "setup_ms", median(steady(setup)), "ms");
     c.report.add(build, "embree", "bytes", static_cast<double>(c.embree->scene_bytes()), "bytes");
 #else

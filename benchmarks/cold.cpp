@@ -10,7 +10,10 @@
 // TBB's workers under Embree), code paged in, per-thread state set up, so that what is left is
 // the memory. On this machine the children run on memory the kernel has handed out before, so
 // the cold figures are a lower bound of what a fresh machine shows.
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
+#include <iterator>
 #include <iostream>
 #include <stdexcept>
 #include <string>
@@ -127,8 +130,8 @@ void cold_builds(const Context& c, std::size_t n, Distribution d, const std::str
         const std::string name = build + b.suffix, impl = embree ? "embree" : "sylva", peer = embree ? "" : build;
         double m = median(ms[i]);
         c.report.add(name, impl, "build_cold_ms", m, "ms", peer, b.config);
-        c.report.add(name, impl, "build_cold_elements_per_s", static_cast<double>(n) / (std::max(m, 1e-6) / 1000.0),
-                     "elements/s", peer, b.config);
+        c.report.add(name, impl, "build_cold_elements_per_s", per_s(static_cast<double>(n), m), "elements/s", peer,
+                     b.config);
     }
 }
 

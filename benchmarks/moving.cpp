@@ -295,7 +295,7 @@ void measure_queries(std::vector<Entrant>& es, std::span<const Ray> rays, Thread
                 for (std::size_t i = i0; i < i1; ++i) hit[i] = e.first(rays[i]).value_or(~0u);
             });
         });
-        e.rays_per_s = double(rays.size()) / (std::max(q, 1e-6) / 1000.0);
+        e.rays_per_s = per_s(double(rays.size()), q);
     }
 }
 
@@ -317,7 +317,7 @@ void add_records(Report& report, const std::vector<Entrant>& es, const std::stri
 #endif
         report.add(name, impl, "build_ms", e.build_ms, "ms", to);
         report.add(name, impl, "cold_update_ms", e.ms.front(), "ms", to);
-        report.add(name, impl, "steady_update_ms", median(std::vector<double>(e.ms.begin() + 1, e.ms.end())), "ms", to);
+        report.add(name, impl, "steady_update_ms", median(steady(e.ms)), "ms", to);
         report.add(name, impl, "first_hit_rays_per_s", e.rays_per_s, "rays/s", to);
         report.add(name, impl, "brute_force_mismatches", double(e.mismatches), "rays", to);
         if (e.name == "octree") report.add(name, impl, "refit_margin", double(kOctreeRefitMargin), "box fraction");
@@ -345,7 +345,7 @@ void print_table(const std::vector<Entrant>& es, const std::string& label, const
     out << std::string(91, '-') << "\n";
     for (const Entrant& e : es)
         row(case_name(label, e), num(e.build_ms), num(e.ms.front()),
-            num(median(std::vector<double>(e.ms.begin() + 1, e.ms.end()))), num(e.rays_per_s / 1e6));
+            num(median(steady(e.ms))), num(e.rays_per_s / 1e6));
     out << "octree (refit_margin " << kOctreeRefitMargin << ") refits that fell back to a rebuild: " << r.octree_fallbacks
         << " of " << a.frames
         << "; brute-force check over " << r.sample << " rays: " << r.mismatches << " mismatches\n";
