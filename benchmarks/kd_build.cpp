@@ -220,16 +220,19 @@ void run_parallel(const S& src, X& exec, int threads, int runs, StreamPass& stre
 }
 
 /// The ESS tree as sylva-render --index kd-binned builds it the first time (issue 15, item 5):
-/// occupancy from the TF over every voxel's 3x3x3 neighbourhood of the density grid, a deep
-/// binned tree, 2 threads, everything from scratch every run (EssRebuilder constructed anew).
-/// "ess-blocks": block ranges (one streaming pass), the undecided blocks' voxels; "ess-codes":
-/// segment codes and kdtree::Rebuilder over them (the path before, and that of Vulkan).
+/// occupancy from the TF over every voxel's 3x3x3 neighbourhood, a deep binned tree, 2
+/// threads, everything from scratch every run (EssRebuilder constructed anew). "ess-blocks":
+/// block ranges (one streaming pass), the undecided blocks' voxels, over the grid the marcher
+/// reads (`gw`: a file's uint8 / uint16 voxels as stored, as --grid native); "ess-codes":
+/// segment codes of the density grid and kdtree::Rebuilder over them (the path before, and that
+/// of Vulkan).
 template <Executor X>
-void run_ess(const volume::DensityGrid& g, X& exec, int runs, StreamPass& stream, std::vector<Row>& rows) {
+void run_ess(const GridWords& gw, const volume::DensityGrid& g, X& exec, int runs, StreamPass& stream,
+             std::vector<Row>& rows) {
     std::vector<std::uint32_t> tf = volume::TransferFunction::ct_bone_tissue().packed_rgba8();
     kdtree::Config cfg = kdtree::Config::deep().binned();
     rows.push_back(time_build("ess-blocks-tf", "deep", 2, runs, stream, [&] {
-        EssRebuilder<X> ess(g, cfg, exec);
+        EssRebuilder<X> ess(gw, cfg, exec);
         kdtree::Tree t = ess.rebuild(tf);
         t.stats.occupancy_ms = ess.total_ms() - t.stats.split_ms;
         return t;
@@ -268,7 +271,8 @@ void report_rows(const std::string& c, const std::vector<Row>& rows, Report& rep
 }
 
 template <volume::OccupancySource S>
-void section_builders(const Case& c, const S& src, const volume::DensityGrid& grid, const Options& o, Report& rep) {
+void section_builders(const Case& c, const S& src, const GridWords& gw, const volume::DensityGrid& grid, const Options& o,
+                      Report& rep) {
     std::vector<Row> rows;
     SerialExecutor serial;
     ThreadPool pool(2);
@@ -280,7 +284,7 @@ void section_builders(const Case& c, const S& src, const volume::DensityGrid& gr
     if (volume::voxel_count(grid.dims) > (std::size_t{1} << 27)) {
         std::printf("  ESS build: left out above 512^3 voxels (the segment codes' row would take 6 bytes a voxel)\n");
     } else {
-        run_ess(grid, pool, runs, s2, ess);
+        run_ess(gw, grid, pool, runs, s2, ess);
         std::printf("  ESS build as sylva-render --index kd-binned runs it (CT TF over 3x3x3 neighbourhoods, deep binned "
                 "tree, 2 threads, from scratch): %.2f ms = %.2fx one streaming pass (%.2f ms); with segment codes "
                 "%.2f ms = %.2fx\n",
@@ -526,10 +530,10 @@ void run_case(const Case& c, const V& vol, const Options& o, Report& rep) {
     rep.add(c.name, "volume", "occupancy", 100.0 * double(occupied) / double(voxels), "%");
     if (o.section("builders")) {
         if constexpr (std::is_same_v<V, volume::DensityGrid>) {
-            section_builders(c, src, vol, o, rep);
+            section_builders(c, src, GridWords::from(vol), vol, o, rep);
         } else {
             volume::DensityGrid g = volume::normalize(vol);  // untimed, as sylva-render does at load
-            section_builders(c, src, g, o, rep);
+            section_builders(c, src, GridWords::native(vol), g, o, rep);
         }
     }
     if (o.section("levels")) section_levels(c, src, rep);

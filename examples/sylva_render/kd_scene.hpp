@@ -76,13 +76,14 @@ struct Device {
 /// local boxes on the device, the splitting on the host).
 class KdBuilder {
 public:
-    KdBuilder(const Options& o, const volume::DensityGrid& g, ThreadPool& pool, Device& dev)
-        : o_(o), grid_(g), pool_(pool), dev_(dev), cfg_(kd_config(o)) {}
+    KdBuilder(const Options& o, const volume::DensityGrid& g, const GridWords& gw, ThreadPool& pool, Device& dev)
+        : o_(o), grid_(g), words_(gw), pool_(pool), dev_(dev), cfg_(kd_config(o)) {}
 
     kdtree::Tree rebuild(const EssClassifier& cls) {
         codes_ms_ = 0.0;
         ranges_ms_ = 0.0;
         if (!on_device()) {
+            if (!host_ && raw_words()) host_.emplace(words_, cfg_, pool_);  // 1 / 2 bytes a voxel read
             if (!host_) host_.emplace(grid_, cfg_, pool_, grid_border(o_));
             kdtree::Tree t = host_->rebuild(cls);
             timings_ = host_->timings();
@@ -112,13 +113,21 @@ public:
     [[nodiscard]] bool on_device() const { return o_.backend == "vulkan" && o_.index == "kd-binned"; }
     [[nodiscard]] std::string construction() const {
         if (on_device()) return "local boxes on the Vulkan device, splitting on the host";
-        return cfg_.planes == kdtree::Planes::Binned ? "host: block ranges, binned local boxes"
-                                                     : "host: segment codes, partial SVTs";
+        if (cfg_.planes != kdtree::Planes::Binned) return "host: segment codes, partial SVTs";
+        return raw_words() ? "host: block ranges over the raw voxels, binned local boxes"
+                           : "host: block ranges, binned local boxes";
     }
 
 private:
+    /// True when the marcher's grid holds the raw uint8 / uint16 voxels (--grid native), which
+    /// the host builder reads as themselves (the same tree as from the floats, from fewer bytes).
+    [[nodiscard]] bool raw_words() const {
+        return words_.sampling.format == GridFormat::U8 || words_.sampling.format == GridFormat::U16;
+    }
+
     const Options& o_;
     const volume::DensityGrid& grid_;
+    const GridWords& words_;
     ThreadPool& pool_;
     Device& dev_;
     kdtree::Config cfg_;
@@ -245,7 +254,7 @@ inline int run_kd_volume(const Options& o, const sylva::volume::DensityGrid& g, 
     } else {
         s.device = "host, " + std::to_string(pool.concurrency()) + " threads";
     }
-    KdBuilder builder(o, g, pool, dev);
+    KdBuilder builder(o, g, gw, pool, dev);
     s.kd.stream_ms = stream_pass_ms(g, raw, pool);
     kdtree::Tree t = builder.rebuild(classifier(o, p.tf));
     auto t0 = std::chrono::steady_clock::now();

@@ -77,6 +77,30 @@ std::vector<std::uint32_t> band_tf(float lo, float hi, float peak) {
     return tf;
 }
 
+/// Transfer functions for the block passes: a preset, a band, 1024 entries, all and nothing
+/// visible, and combs.
+std::vector<std::pair<std::string, std::vector<std::uint32_t>>> block_pass_tfs() {
+    std::vector<std::pair<std::string, std::vector<std::uint32_t>>> tfs = {
+        {"ct", volume::TransferFunction::ct_bone_tissue().packed_rgba8()},
+        {"band", band_tf(0.3f, 0.36f, 0.4f)},
+        {"ramp, 1024 entries", volume::TransferFunction::ramp(0.2f, 0.6f, vec4(1.0f, 0.8f, 0.5f, 0.6f), 1024).packed_rgba8()},
+        {"all visible", std::vector<std::uint32_t>(256, rgba8(1.0f, 1.0f, 1.0f, 0.5f))},
+        {"nothing visible", std::vector<std::uint32_t>(256, rgba8(1.0f, 1.0f, 1.0f, 0.0f))}};
+    // A comb: 32 visible runs of buckets (more than the 8 the block pass tests as density
+    // intervals, so its voxels go through their buckets), and 3 runs in a 100-entry TF.
+    std::vector<std::uint32_t> comb(256), comb100(100);
+    for (std::size_t i = 0; i < comb.size(); ++i) comb[i] = rgba8(1.0f, 1.0f, 1.0f, (i / 4) % 2 == 1 ? 0.5f : 0.0f);
+    for (std::size_t i = 0; i < comb100.size(); ++i) comb100[i] = rgba8(1.0f, 1.0f, 1.0f, i % 30 == 7 ? 0.5f : 0.0f);
+    tfs.emplace_back("comb of 32 runs", comb);
+    tfs.emplace_back("100 entries, 3 runs", comb100);
+    return tfs;
+}
+
+/// The grid borders of the block passes: zero, clamped, a constant inside the data's range.
+std::vector<std::pair<std::string, GridBorder>> block_pass_borders() {
+    return {{"zero", GridBorder{}}, {"clamp", GridBorder{BorderMode::Clamp, 0.0f}}, {"0.33", GridBorder{BorderMode::Constant, 0.33f}}};
+}
+
 VolumeRenderParams params(const volume::DensityGrid& g, vec3 from, std::uint32_t size,
                           std::vector<std::uint32_t> tf) {
     VolumeRenderParams p;
@@ -395,21 +419,8 @@ TEST_CASE("ess dvr: EssRebuilder (block ranges for binned trees, segment codes f
 TEST_CASE("ess dvr: block ranges and the undecided blocks' voxels give the segment codes' occupancy voxel for voxel",
           "[kd_dvr]") {
     ThreadPool pool(2);
-    std::vector<std::pair<std::string, std::vector<std::uint32_t>>> tfs = {
-        {"ct", volume::TransferFunction::ct_bone_tissue().packed_rgba8()},
-        {"band", band_tf(0.3f, 0.36f, 0.4f)},
-        {"ramp, 1024 entries", volume::TransferFunction::ramp(0.2f, 0.6f, vec4(1.0f, 0.8f, 0.5f, 0.6f), 1024).packed_rgba8()},
-        {"all visible", std::vector<std::uint32_t>(256, rgba8(1.0f, 1.0f, 1.0f, 0.5f))},
-        {"nothing visible", std::vector<std::uint32_t>(256, rgba8(1.0f, 1.0f, 1.0f, 0.0f))}};
-    // A comb: 32 visible runs of buckets (more than the 8 the block pass tests as density
-    // intervals, so its voxels go through their buckets), and 3 runs in a 100-entry TF.
-    std::vector<std::uint32_t> comb(256), comb100(100);
-    for (std::size_t i = 0; i < comb.size(); ++i) comb[i] = rgba8(1.0f, 1.0f, 1.0f, (i / 4) % 2 == 1 ? 0.5f : 0.0f);
-    for (std::size_t i = 0; i < comb100.size(); ++i) comb100[i] = rgba8(1.0f, 1.0f, 1.0f, i % 30 == 7 ? 0.5f : 0.0f);
-    tfs.emplace_back("comb of 32 runs", comb);
-    tfs.emplace_back("100 entries, 3 runs", comb100);
-    std::vector<std::pair<std::string, GridBorder>> borders = {
-        {"zero", GridBorder{}}, {"clamp", GridBorder{BorderMode::Clamp, 0.0f}}, {"0.33", GridBorder{BorderMode::Constant, 0.33f}}};
+    std::vector<std::pair<std::string, std::vector<std::uint32_t>>> tfs = block_pass_tfs();
+    std::vector<std::pair<std::string, GridBorder>> borders = block_pass_borders();
     // Grids whose sides are and are not multiples of the 8-voxel block, down to one voxel.
     // Sparse blobs, and Marschner-Lobb: smooth, so neighbourhood ranges are narrow and lie
     // next to every run boundary of the TFs (a boundary off by 0.01 fails).
@@ -502,6 +513,80 @@ TEST_CASE("ess dvr: block ranges and the undecided blocks' voxels give the segme
     EssRebuilder<ThreadPool> nan_ess(nan_grid, kdtree::Config::deep().binned(), pool);
     CHECK_THROWS_WITH(nan_ess.rebuild(volume::TransferFunction::ct_bone_tissue().packed_rgba8()),
                       Catch::Contains("NaN density"));
+}
+
+/// `g` quantised into a uint8 or uint16 volume whose value range cuts off both ends (raw values
+/// below range_lo read as density 0, above range_hi as 1: plateaus of the density in the value).
+volume::Volume quantised(const volume::DensityGrid& g, volume::ScalarType type) {
+    volume::Volume v;
+    v.type = type;
+    v.dims = g.dims;
+    v.spacing = g.spacing;
+    bool u8 = type == volume::ScalarType::U8;
+    float top = u8 ? 255.0f : 65535.0f;
+    v.range_lo = u8 ? 12.0f : 700.0f;
+    v.range_hi = u8 ? 230.0f : 61000.0f;
+    v.bytes.resize(g.values.size() * (u8 ? 1 : 2));
+    for (std::size_t i = 0; i < g.values.size(); ++i) {
+        // Spread past the range on both sides, so that the plateaus hold voxels.
+        float raw = std::clamp(std::round(g.values[i] * top * 1.1f - 0.05f * top), 0.0f, top);
+        if (u8) {
+            v.bytes[i] = static_cast<std::byte>(static_cast<std::uint8_t>(raw));
+        } else {
+            auto r = static_cast<std::uint16_t>(raw);
+            std::memcpy(&v.bytes[2 * i], &r, 2);
+        }
+    }
+    return v;
+}
+
+TEST_CASE("ess dvr: native uint8 / uint16 grids, read as their raw voxels, give the occupancy of their densities",
+          "[kd_dvr]") {
+    ThreadPool pool(2);
+    std::vector<std::pair<std::string, std::vector<std::uint32_t>>> tfs = block_pass_tfs();
+    std::vector<std::pair<std::string, GridBorder>> borders = block_pass_borders();
+    for (volume::Dims dims : {volume::Dims{40, 44, 36}, volume::Dims{17, 9, 23}, volume::Dims{1, 1, 1},
+                              volume::Dims{1, 12, 3}, volume::Dims{33, 30, 27}})
+        for (volume::ScalarType type : {volume::ScalarType::U8, volume::ScalarType::U16}) {
+            volume::DensityGrid source = dims.x == 33 ? volume::marschner_lobb(dims) : volume::sparse_nbody(dims, 6u);
+            volume::Volume raw = quantised(source, type);
+            volume::DensityGrid g = volume::normalize(raw);  // the densities the native grid's samplers read
+            INFO(dims.x << "x" << dims.y << "x" << dims.z << ", " << volume::scalar_name(type));
+            if (g.values.size() >= 1000) {  // both plateaus hold voxels
+                CHECK(std::count(g.values.begin(), g.values.end(), 0.0f) > 0);
+                CHECK(std::count(g.values.begin(), g.values.end(), 1.0f) > 0);
+            }
+            for (const auto& [bname, border] : borders) {
+                GridWords gw = GridWords::native(raw, border), gf = GridWords::from(g, border);
+                REQUIRE(gw.sampling.format == (type == volume::ScalarType::U8 ? GridFormat::U8 : GridFormat::U16));
+                std::size_t density_mismatches = 0;
+                for (std::size_t i = 0; i < g.values.size(); ++i) density_mismatches += gw.density(i) != g.values[i];
+                REQUIRE(density_mismatches == 0);
+                // The ranges of the raw voxels, as densities, are those of the floats.
+                EssBlockRanges r = ess_block_ranges(gw, pool), rf = ess_block_ranges(g, pool);
+                CHECK(r.lo == rf.lo);
+                CHECK(r.hi == rf.hi);
+                for (const auto& [tf_name, tf] : tfs) {
+                    INFO("border " << bname << ", " << tf_name);
+                    EssClassifier cls = ess_classifier(tf);
+                    volume::Occupancy ref = occupancy_for(g, tf, pool, border);
+                    std::vector<std::uint32_t> want_words, words, all_read_words, float_words;
+                    kdtree::block_words(ref, pool, want_words);
+                    std::vector<std::uint8_t> verdicts;
+                    ess_block_verdicts(r, cls, border, verdicts);
+                    ess_block_words(gw, cls, verdicts, pool, words);
+                    ess_block_words(gw, cls, std::vector<std::uint8_t>(verdicts.size(), kdtree::kBlockRead), pool,
+                                    all_read_words);
+                    ess_block_words(gf, cls, verdicts, pool, float_words);
+                    CHECK(words == want_words);
+                    CHECK(all_read_words == want_words);
+                    CHECK(float_words == want_words);
+                    kdtree::Tree t = EssRebuilder<ThreadPool>(gw, kdtree::Config::deep().binned(), pool).rebuild(cls);
+                    CHECK(t.nodes == kdtree::build_binned(ref, kdtree::Config::deep().binned(), pool).nodes);
+                    CHECK(t.stats.occupied == ref.count());
+                }
+            }
+        }
 }
 
 TEST_CASE("ess dvr: aneurism, shallow and deep trees of both builders, images equal the marcher's",

@@ -25,9 +25,12 @@
 //    buckets are all invisible is empty, all visible full; only the others are read
 //    (ess_block_words), voxel by voxel with the same arithmetic (bucket is monotone, so the
 //    bucket of a neighbourhood's minimum is the least bucket of its voxels), straight into the
-//    binned builder's block words: the same occupancy as the codes, bit for bit. On the
-//    aneurism with the CT preset 4,567 of 32,768 blocks are read, and the first build of a
-//    binned tree takes 3-5 streaming passes instead of 40.
+//    binned builder's block words: the same occupancy as the codes, bit for bit. A native
+//    uint8 / uint16 grid is read as its raw voxels (EssRawRows): its density is nondecreasing in
+//    the raw value, so ranges and run bounds carry over, from a quarter (half) of the bytes and
+//    16 (8) lanes a vector. On the aneurism with the CT preset 4,567 of 32,768 blocks are read,
+//    and the first build of a binned tree takes 1.4-2 streaming passes instead of 40 (bonsai
+//    3.7-3.9, engine 2.5-2.9; README, "The first build a user runs").
 #ifndef SYLVA_RENDER_ESS_OCCUPANCY_HPP
 #define SYLVA_RENDER_ESS_OCCUPANCY_HPP
 
@@ -41,6 +44,7 @@
 #include <limits>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "sylva/core/error.hpp"
@@ -307,11 +311,20 @@ volume::Occupancy ess_occupancy(const EssCodes& codes, const EssClassifier& cls,
 
 namespace detail {
 
+// The passes below read a grid row by row through a Rows type: `dims`; `value_type`, what a
+// voxel is read as (float densities, or the raw uint8 / uint16 voxels of a native grid, whose
+// density is a nondecreasing function of them, so that the least raw value of a neighbourhood
+// has its least density); `row(x0, x1, y, z, scratch)`, a pointer p with p[x] the value of voxel
+// (x, y, z) for x in [x0, x1) (into the grid, or written into scratch, which has dims.x
+// entries); `prefetch(x0, x1, y, z)`; and `density(value)`. Raw voxels are read 4 (uint8) or 2
+// (uint16) times fewer bytes than floats, and their ranges are taken 16 / 8 lanes a vector.
+
 /// Rows of densities of a DensityGrid: pointers into its values.
 struct EssFloatRows {
+    using value_type = float;
     volume::Dims dims;
     const float* values;
-    const float* row(std::uint32_t y, std::uint32_t z, float* /*scratch*/) const {
+    const float* row(std::uint32_t, std::uint32_t, std::uint32_t y, std::uint32_t z, float* /*scratch*/) const {
         return values + volume::voxel_index(dims, 0, y, z);
     }
     /// Asks for the cache lines of voxels [x0, x1) of row (y, z) ahead of their use.
@@ -320,26 +333,118 @@ struct EssFloatRows {
         for (std::uint32_t x = x0; x < x1; x += 16u) __builtin_prefetch(p + x);
         __builtin_prefetch(p + x1 - 1u);
     }
+    static float density(float v) { return v; }
 };
 
-/// Rows of densities of grid words in any format, one voxel at a time into `scratch`.
+/// Rows of densities of grid words in any format, voxel by voxel into `scratch` (float grids,
+/// sparse grids, and integer grids whose densities are not monotone in the raw values).
 struct EssWordRows {
+    using value_type = float;
     volume::Dims dims;
     const GridWords* grid;
-    const float* row(std::uint32_t y, std::uint32_t z, float* scratch) const {
+    const float* row(std::uint32_t x0, std::uint32_t x1, std::uint32_t y, std::uint32_t z, float* scratch) const {
         std::size_t at = volume::voxel_index(dims, 0, y, z);
         if (is_sparse(grid->sampling.format)) {
-            for (std::uint32_t x = 0; x < dims.x; ++x) scratch[x] = grid->density(at + x);
+            for (std::uint32_t x = x0; x < x1; ++x) scratch[x] = grid->density(at + x);
         } else {
             shared::Words w{grid->words.data(), grid->words.size()};
             shared::SylvaGridDesc desc = grid->desc();
-            for (std::uint32_t x = 0; x < dims.x; ++x)
+            for (std::uint32_t x = x0; x < x1; ++x)
                 scratch[x] = shared::sylva_grid_word_density(w, desc, static_cast<std::uint32_t>(at + x));
         }
         return scratch;
     }
     void prefetch(std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t) const {}
+    static float density(float v) { return v; }
 };
+
+/// Rows of the raw voxels of a dense uint8 / uint16 grid (GridWords::native), read as
+/// themselves; `table` holds the density of every raw value (the samplers' arithmetic,
+/// sylva_grid_raw_density), nondecreasing (ess_raw_density_table checks it).
+template <class T>
+struct EssRawRows {
+    static_assert(std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>);
+    using value_type = T;
+    volume::Dims dims;
+    const std::uint32_t* words;
+    const float* table;
+    const T* row(std::uint32_t x0, std::uint32_t x1, std::uint32_t y, std::uint32_t z, T* scratch) const {
+        std::size_t at = volume::voxel_index(dims, 0, y, z);
+        if constexpr (sizeof(T) == 1) {
+            // Voxel i is byte i & 3 of word i >> 2 (bits 8 (i & 3)): on a little-endian host,
+            // byte i of the words, read through unsigned char (which may alias any object).
+            return reinterpret_cast<const unsigned char*>(words) + at;
+        } else {
+            for (std::uint32_t x = x0; x < x1; ++x) {
+                std::size_t i = at + x;
+                scratch[x] = static_cast<T>(words[i >> 1] >> ((i & 1u) * 16u));
+            }
+            return scratch;
+        }
+    }
+    void prefetch(std::uint32_t x0, std::uint32_t x1, std::uint32_t y, std::uint32_t z) const {
+        const char* p = reinterpret_cast<const char*>(words) + (volume::voxel_index(dims, 0, y, z) + x0) * sizeof(T);
+        for (std::size_t o = 0; o < std::size_t{x1 - x0} * sizeof(T); o += 64u) __builtin_prefetch(p + o);
+        __builtin_prefetch(p + std::size_t{x1 - x0} * sizeof(T) - 1u);
+    }
+    [[nodiscard]] float density(T v) const { return table[v]; }
+};
+
+/// The density of every raw value of a dense uint8 / uint16 grid, as its samplers compute it;
+/// empty when the grid is not one, or when the densities are not nondecreasing in the raw
+/// value (then the raw passes would not be exact and the grid is read as floats).
+inline std::vector<float> ess_raw_density_table(const GridWords& g) {
+    if constexpr (std::endian::native != std::endian::little) return {};
+    std::uint32_t values = g.sampling.format == GridFormat::U8 ? 256u : g.sampling.format == GridFormat::U16 ? 65536u : 0u;
+    std::vector<float> table(values);
+    shared::SylvaGridDesc desc = g.desc();
+    for (std::uint32_t v = 0; v < values; ++v) {
+        table[v] = shared::sylva_grid_raw_density(desc, v);
+        if (!(v == 0u || table[v] >= table[v - 1u])) return {};  // NaN or decreasing
+    }
+    if (values > 0u && !std::isfinite(table[0])) return {};
+    return table;
+}
+
+/// Calls f(rows) with the fastest exact Rows over grid words: raw uint8 / uint16 voxels for a
+/// dense integer grid, floats otherwise.
+template <class F>
+decltype(auto) ess_with_rows(const GridWords& g, F&& f) {
+    std::vector<float> table = ess_raw_density_table(g);
+    if (!table.empty() && g.sampling.format == GridFormat::U8)
+        return f(EssRawRows<std::uint8_t>{g.dims, g.words.data(), table.data()});
+    if (!table.empty()) return f(EssRawRows<std::uint16_t>{g.dims, g.words.data(), table.data()});
+    return f(EssWordRows{g.dims, &g});
+}
+
+/// The identity of min (the highest value) and of max (the lowest) over a value type.
+template <class V>
+constexpr V ess_min_identity() {
+    if constexpr (std::numeric_limits<V>::has_infinity) return std::numeric_limits<V>::infinity();
+    else return std::numeric_limits<V>::max();
+}
+template <class V>
+constexpr V ess_max_identity() {
+    if constexpr (std::numeric_limits<V>::has_infinity) return -std::numeric_limits<V>::infinity();
+    else return std::numeric_limits<V>::lowest();
+}
+
+/// o[x] = min(a[x], b[x], c[x]) and p[x] = max(d[x], e[x], f[x]) for x < n: the 3-wide range
+/// filters, written with restrict pointers so that they vectorize.
+template <class V>
+inline void ess_min3(const V* __restrict a, const V* __restrict b, const V* __restrict c, V* __restrict o, std::uint32_t n) {
+    for (std::uint32_t x = 0; x < n; ++x) {
+        V m = b[x] < a[x] ? b[x] : a[x];
+        o[x] = c[x] < m ? c[x] : m;
+    }
+}
+template <class V>
+inline void ess_max3(const V* __restrict a, const V* __restrict b, const V* __restrict c, V* __restrict o, std::uint32_t n) {
+    for (std::uint32_t x = 0; x < n; ++x) {
+        V m = b[x] > a[x] ? b[x] : a[x];
+        o[x] = c[x] > m ? c[x] : m;
+    }
+}
 
 }  // namespace detail
 
@@ -364,13 +469,14 @@ inline void ess_blocks_holding(std::uint32_t c, std::uint32_t blocks, std::uint3
     if (c % 8u == 7u && last + 1u < blocks) ++last;
 }
 
-/// Adds row `v` (d.x densities) into the running column ranges lo, hi, element by element;
-/// returns true when the row holds a NaN.
-inline bool ess_fold_row(const float* __restrict v, float* __restrict lo, float* __restrict hi, std::uint32_t n) {
+/// Adds row `v` (n values) into the running column ranges lo, hi, element by element; returns
+/// true when the row holds a NaN (never for raw values).
+template <class V>
+inline bool ess_fold_row(const V* __restrict v, V* __restrict lo, V* __restrict hi, std::uint32_t n) {
     std::uint32_t nan = 0;
     for (std::uint32_t x = 0; x < n; ++x) {
-        float t = v[x];
-        nan |= static_cast<std::uint32_t>(t != t);
+        V t = v[x];
+        if constexpr (std::is_floating_point_v<V>) nan |= static_cast<std::uint32_t>(t != t);
         lo[x] = t < lo[x] ? t : lo[x];
         hi[x] = t > hi[x] ? t : hi[x];
     }
@@ -380,9 +486,10 @@ inline bool ess_fold_row(const float* __restrict v, float* __restrict lo, float*
 /// One streaming pass: the grown ranges of every block of `rows`. Slabs of blocks (bz) in
 /// parallel; each reads its 8 slices and the one on either side, folds every row into the
 /// column ranges of the one or two rows of blocks (by) whose grown range holds it, then takes
-/// each block's grown x-range of its row's columns.
+/// each block's grown x-range of its row's columns, as densities.
 template <class Rows, Executor X>
 EssBlockRanges ess_block_ranges(const Rows& rows, X& exec) {
+    using V = typename Rows::value_type;
     auto t0 = std::chrono::steady_clock::now();
     volume::Dims d = rows.dims;
     volume::voxel_count(d);
@@ -392,17 +499,16 @@ EssBlockRanges ess_block_ranges(const Rows& rows, X& exec) {
     std::size_t nb = std::size_t{r.blocks.x} * r.blocks.y * r.blocks.z;
     r.lo.assign(nb, std::numeric_limits<float>::infinity());
     r.hi.assign(nb, -std::numeric_limits<float>::infinity());
-    constexpr float inf = std::numeric_limits<float>::infinity();
     exec.parallel_for(0, r.blocks.z, 1, [&](std::size_t bz0, std::size_t bz1) {
-        std::vector<float> scratch(d.x), clo(std::size_t{r.blocks.y} * d.x), chi(clo.size());
+        std::vector<V> scratch(d.x), clo(std::size_t{r.blocks.y} * d.x), chi(clo.size());
         for (auto bz = static_cast<std::uint32_t>(bz0); bz < bz1; ++bz) {
-            std::fill(clo.begin(), clo.end(), inf);
-            std::fill(chi.begin(), chi.end(), -inf);
+            std::fill(clo.begin(), clo.end(), ess_min_identity<V>());
+            std::fill(chi.begin(), chi.end(), ess_max_identity<V>());
             std::uint32_t z0 = bz * 8u > 0u ? bz * 8u - 1u : 0u, z1 = std::min(d.z - 1u, bz * 8u + 8u);
             bool nan = false;
             for (std::uint32_t z = z0; z <= z1; ++z)
                 for (std::uint32_t y = 0; y < d.y; ++y) {
-                    const float* v = rows.row(y, z, scratch.data());
+                    const V* v = rows.row(0u, d.x, y, z, scratch.data());
                     std::uint32_t by0, by1;
                     ess_blocks_holding(y, r.blocks.y, by0, by1);
                     for (std::uint32_t by = by0; by <= by1; ++by)
@@ -410,15 +516,15 @@ EssBlockRanges ess_block_ranges(const Rows& rows, X& exec) {
                 }
             if (nan) throw Error("kd-dvr: the grid holds a NaN density");
             for (std::uint32_t by = 0; by < r.blocks.y; ++by) {
-                const float* lo = clo.data() + std::size_t{by} * d.x;
-                const float* hi = chi.data() + std::size_t{by} * d.x;
+                const V* lo = clo.data() + std::size_t{by} * d.x;
+                const V* hi = chi.data() + std::size_t{by} * d.x;
                 std::size_t at = std::size_t{r.blocks.x} * (by + std::size_t{r.blocks.y} * bz);
                 for (std::uint32_t bx = 0; bx < r.blocks.x; ++bx) {
                     std::uint32_t x0 = bx * 8u > 0u ? bx * 8u - 1u : 0u, x1 = std::min(d.x - 1u, bx * 8u + 8u);
-                    float mn = inf, mx = -inf;
+                    V mn = ess_min_identity<V>(), mx = ess_max_identity<V>();
                     for (std::uint32_t x = x0; x <= x1; ++x) mn = std::min(mn, lo[x]), mx = std::max(mx, hi[x]);
-                    r.lo[at + bx] = mn;
-                    r.hi[at + bx] = mx;
+                    r.lo[at + bx] = rows.density(mn);  // the density is nondecreasing in the value
+                    r.hi[at + bx] = rows.density(mx);
                 }
             }
         }
@@ -446,11 +552,12 @@ EssBlockRanges ess_block_ranges(const volume::DensityGrid& g, X& exec) {
     return detail::ess_block_ranges(detail::EssFloatRows{g.dims, g.values.data()}, exec);
 }
 
-/// The same over grid words in any format.
+/// The same over grid words in any format; a dense uint8 / uint16 grid is read as its raw
+/// voxels (1 / 2 bytes a voxel).
 template <Executor X>
 EssBlockRanges ess_block_ranges(const GridWords& g, X& exec) {
     g.check_words("kd-dvr");
-    return detail::ess_block_ranges(detail::EssWordRows{g.dims, &g}, exec);
+    return detail::ess_with_rows(g, [&](const auto& rows) { return detail::ess_block_ranges(rows, exec); });
 }
 
 /// Verdicts of the blocks under `cls` (kdtree::kBlockEmpty / kBlockFull / kBlockRead, one byte
@@ -517,30 +624,78 @@ inline EssVisibleRuns ess_visible_runs(const EssClassifier& cls, const EssBucket
     return r;
 }
 
+/// The visible runs (EssVisibleRuns) as bounds on raw values, for Rows whose values are raw
+/// voxels: a voxel whose neighbourhood holds raw values [lo, hi] reaches run i exactly when
+/// hi >= start[i] and (end_all[i] or lo < end[i]), because the densities clamp(density(v) -+
+/// eps, -1, 2) the float classification compares are nondecreasing in v. Runs no value reaches
+/// are left out; `usable` false for float values or unusable runs (then voxels are classified
+/// as densities).
+template <class V>
+struct EssRawRuns {
+    std::vector<V> start, end;
+    std::vector<std::uint8_t> end_all;  ///< every raw value lies below the run's end
+    bool usable = false;
+};
+
+template <class Rows>
+EssRawRuns<typename Rows::value_type> ess_raw_runs(const Rows& rows, const EssVisibleRuns& runs) {
+    using V = typename Rows::value_type;
+    EssRawRuns<V> r;
+    if constexpr (!std::is_floating_point_v<V>) {
+        if (!runs.usable) return r;
+        constexpr std::uint32_t n = std::uint32_t{std::numeric_limits<V>::max()} + 1u;
+        auto lower = [&](std::uint32_t v) { return std::clamp(rows.density(static_cast<V>(v)) - kEssEps, -1.0f, 2.0f); };
+        auto upper = [&](std::uint32_t v) { return std::clamp(rows.density(static_cast<V>(v)) + kEssEps, -1.0f, 2.0f); };
+        auto first_reaching = [&](auto&& f, float bound) {  // least v with f(v) >= bound, n when none
+            std::uint32_t lo = 0, hi = n;
+            while (lo < hi) {
+                std::uint32_t mid = lo + (hi - lo) / 2u;
+                if (f(mid) >= bound) hi = mid;
+                else lo = mid + 1u;
+            }
+            return lo;
+        };
+        for (std::size_t i = 0; i < runs.start.size(); ++i) {
+            std::uint32_t s = first_reaching(upper, runs.start[i]), e = first_reaching(lower, runs.end[i]);
+            if (s == n || e == 0u) continue;  // no neighbourhood's range reaches the run
+            r.start.push_back(static_cast<V>(s));
+            r.end.push_back(static_cast<V>(e == n ? 0u : e));
+            r.end_all.push_back(e == n ? 1u : 0u);
+        }
+        r.usable = true;
+    }
+    return r;
+}
+
 /// The block words of one row of blocks (by, bz): decided blocks from their verdicts; each run
 /// of blocks to read classified voxel by voxel from its 3x3x3 neighbourhoods, min and max
-/// taken separably (x, then y, then z) over the run's rows and the rows around them.
+/// taken separably (x, then y, then z) over the run's rows and the rows around them, in the
+/// Rows' values (raw voxels of a native grid are compared as themselves).
 template <class Rows>
 struct EssBlockRowPass {
+    using V = typename Rows::value_type;
     const Rows& rows;
     const EssClassifier& cls;
     const EssBucketMap& bucket;
     const EssVisibleRuns& runs;
+    const EssRawRuns<V>& raw_runs;
     float border_lo, border_hi;  ///< a face voxel's range takes in [border_lo, border_hi] (min / max identities under a clamped border)
     const std::uint8_t* verdicts;
     uvec3 nb;
     std::uint32_t* words;
-    // Scratch of the task running it: a row of densities, x-filtered rows (up to 10 x 10 of
-    // the run's width), y-filtered rows (10 x 8), one row of neighbourhood ranges and of
-    // occupancy bytes, accumulators.
-    std::vector<float> scratch, xlo, xhi, ylo, yhi, dlo, dhi;
+    // Scratch of the task running it: a row of values, x-filtered rows (up to 10 x 10 of the
+    // run's width), y-filtered rows (10 x 8), one row of neighbourhood ranges as values and as
+    // densities, of occupancy bytes, accumulators.
+    std::vector<V> scratch, xlo, xhi, ylo, yhi, zlo, zhi;
+    std::vector<float> dlo, dhi;
     std::vector<std::uint8_t> occ;
     std::vector<kdtree::detail::BlockAccumulator> acc;
 
     EssBlockRowPass(const Rows& r, const EssClassifier& c, const EssBucketMap& b, const EssVisibleRuns& v,
-                    const GridBorder& border, const std::uint8_t* verdict, std::uint32_t* w)
-        : rows(r), cls(c), bucket(b), runs(v), verdicts(verdict), nb(kdtree::block_counts(r.dims)), words(w),
-          scratch(r.dims.x), dlo(r.dims.x), dhi(r.dims.x), occ(r.dims.x), acc(nb.x) {
+                    const EssRawRuns<V>& rv, const GridBorder& border, const std::uint8_t* verdict, std::uint32_t* w)
+        : rows(r), cls(c), bucket(b), runs(v), raw_runs(rv), verdicts(verdict), nb(kdtree::block_counts(r.dims)),
+          words(w), scratch(r.dims.x), zlo(r.dims.x), zhi(r.dims.x), dlo(r.dims.x), dhi(r.dims.x), occ(r.dims.x),
+          acc(nb.x) {
         constexpr float eps = kEssEps;
         bool clamp = border.mode == BorderMode::Clamp;
         border_lo = clamp ? std::numeric_limits<float>::infinity() : border.value - eps;
@@ -550,6 +705,16 @@ struct EssBlockRowPass {
     void run(std::uint32_t by, std::uint32_t bz) {
         kdtree::detail::for_each_block_run(rows.dims, nb, by, bz, verdicts, words,
                                            [&](std::uint32_t bx, std::uint32_t end) { read_run(bx, end, by, bz); });
+    }
+
+    /// The occupancy of a voxel whose neighbourhood's density range, eps included, is [lo, hi].
+    [[nodiscard]] std::uint8_t classify_one(float lo, float hi) const {
+        if (runs.usable) {
+            for (std::size_t r = 0; r < runs.start.size(); ++r)
+                if (hi >= runs.start[r] && lo < runs.end[r]) return 1u;
+            return 0u;
+        }
+        return cls.visible_in(bucket(lo), bucket(hi)) != 0u ? 1u : 0u;
     }
 
     /// occ[0, w) of the voxels whose neighbourhood density ranges, eps included, are
@@ -564,11 +729,56 @@ struct EssBlockRowPass {
             }
             return;
         }
-        for (std::uint32_t x = 0; x < w; ++x) occ[x] = cls.visible_in(bucket(dlo[x]), bucket(dhi[x])) != 0u ? 1u : 0u;
+        for (std::uint32_t x = 0; x < w; ++x) occ[x] = classify_one(dlo[x], dhi[x]);
+    }
+
+    /// occ[0, w) from the raw neighbourhood ranges [zlo[x], zhi[x]] (raw_runs usable).
+    void classify_raw(std::uint32_t w) {
+        std::uint8_t* __restrict o = occ.data();
+        const V* __restrict lo = zlo.data();
+        const V* __restrict hi = zhi.data();
+        std::fill(o, o + w, std::uint8_t{0});
+        for (std::size_t r = 0; r < raw_runs.start.size(); ++r) {
+            const V s = raw_runs.start[r], e = raw_runs.end[r];
+            if (raw_runs.end_all[r] != 0u) {
+                for (std::uint32_t x = 0; x < w; ++x) o[x] |= static_cast<std::uint8_t>(hi[x] >= s);
+            } else {
+                for (std::uint32_t x = 0; x < w; ++x) o[x] |= static_cast<std::uint8_t>((hi[x] >= s) & (lo[x] < e));
+            }
+        }
+    }
+
+    /// The density range of a neighbourhood whose values are [lo, hi], eps included, held in
+    /// [-1, 2]: the buckets clamp to [0, 1] anyway, and an infinite density then still compares
+    /// below a run's end of +inf.
+    [[nodiscard]] float lower(V lo) const { return std::clamp(rows.density(lo) - kEssEps, -1.0f, 2.0f); }
+    [[nodiscard]] float upper(V hi) const { return std::clamp(rows.density(hi) + kEssEps, -1.0f, 2.0f); }
+
+    /// occ[0, w) of row (y, z) of the run starting at voxel x0, from its neighbourhoods' value
+    /// ranges [zlo, zhi]; a voxel on a face of the grid also takes in the border's range.
+    void classify_row(std::uint32_t w, std::uint32_t x0, std::uint32_t y, std::uint32_t z) {
+        const volume::Dims d = rows.dims;
+        bool face_row = y == 0u || z == 0u || y + 1u == d.y || z + 1u == d.z;
+        if constexpr (!std::is_floating_point_v<V>) {
+            if (!face_row && raw_runs.usable) {
+                classify_raw(w);
+                for (std::uint32_t x : {0u, w - 1u})
+                    if (x0 + x == 0u || x0 + x + 1u == d.x)
+                        occ[x] = classify_one(std::min(lower(zlo[x]), border_lo), std::max(upper(zhi[x]), border_hi));
+                return;
+            }
+        }
+        for (std::uint32_t x = 0; x < w; ++x) dlo[x] = lower(zlo[x]), dhi[x] = upper(zhi[x]);
+        if (face_row) {  // the whole row
+            for (std::uint32_t x = 0; x < w; ++x) dlo[x] = std::min(dlo[x], border_lo), dhi[x] = std::max(dhi[x], border_hi);
+        } else {
+            for (std::uint32_t x : {0u, w - 1u})
+                if (x0 + x == 0u || x0 + x + 1u == d.x) dlo[x] = std::min(dlo[x], border_lo), dhi[x] = std::max(dhi[x], border_hi);
+        }
+        classify(w);
     }
 
     void read_run(std::uint32_t bx, std::uint32_t end, std::uint32_t by, std::uint32_t bz) {
-        constexpr float eps = kEssEps;
         const volume::Dims d = rows.dims;
         std::uint32_t x0 = bx * 8u, x1 = std::min(d.x, end * 8u), w = x1 - x0;
         std::uint32_t y0 = by * 8u, y1 = std::min(d.y, y0 + 8u), z0 = bz * 8u, z1 = std::min(d.z, z0 + 8u);
@@ -580,22 +790,21 @@ struct EssBlockRowPass {
         // x: the 3-wide range of every row the run's neighbourhoods reach (the grid's first
         // and last voxels have one neighbour along x).
         std::uint32_t xa = x0 > 0u ? x0 - 1u : 0u, xb = std::min(d.x, x1 + 1u);  // voxels read: [xa, xb)
+        std::uint32_t i0 = x0 == 0u ? 1u : x0, i1 = x1 == d.x ? x1 - 1u : x1;    // interior voxels [i0, i1)
         for (std::uint32_t y = ya; y < yb; ++y) rows.prefetch(xa, xb, y, za);
         for (std::uint32_t z = za; z < zb; ++z)
             for (std::uint32_t y = ya; y < yb; ++y) {
                 if (z + 1u < zb) rows.prefetch(xa, xb, y, z + 1u);  // the next slice's row, while this one is filtered
-                const float* v = rows.row(y, z, scratch.data());
-                float* lo = xlo.data() + (std::size_t{z - za} * ny + (y - ya)) * w;
-                float* hi = xhi.data() + (std::size_t{z - za} * ny + (y - ya)) * w;
-                std::uint32_t i0 = x0 == 0u ? 1u : x0, i1 = x1 == d.x ? x1 - 1u : x1;  // interior voxels [i0, i1)
-                for (std::uint32_t x = i0; x < i1; ++x) {
-                    float a = v[x - 1u], b = v[x], c = v[x + 1u];
-                    lo[x - x0] = std::min(std::min(a, b), c);
-                    hi[x - x0] = std::max(std::max(a, b), c);
+                const V* v = rows.row(xa, xb, y, z, scratch.data());
+                V* lo = xlo.data() + (std::size_t{z - za} * ny + (y - ya)) * w;
+                V* hi = xhi.data() + (std::size_t{z - za} * ny + (y - ya)) * w;
+                if (i1 > i0) {
+                    ess_min3(v + i0 - 1u, v + i0, v + i0 + 1u, lo + (i0 - x0), i1 - i0);
+                    ess_max3(v + i0 - 1u, v + i0, v + i0 + 1u, hi + (i0 - x0), i1 - i0);
                 }
                 for (std::uint32_t x : {x0, x1 - 1u}) {
                     if (x >= i0 && x < i1) continue;
-                    float a = v[x > 0u ? x - 1u : x], b = v[x], c = v[x + 1u < d.x ? x + 1u : x];
+                    V a = v[x > 0u ? x - 1u : x], b = v[x], c = v[x + 1u < d.x ? x + 1u : x];
                     lo[x - x0] = std::min(std::min(a, b), c);
                     hi[x - x0] = std::max(std::max(a, b), c);
                 }
@@ -604,41 +813,23 @@ struct EssBlockRowPass {
         for (std::uint32_t z = 0; z < nz; ++z)
             for (std::uint32_t y = y0; y < y1; ++y) {
                 std::uint32_t a = (y > 0u ? y - 1u : y) - ya, b = y - ya, c = (y + 1u < d.y ? y + 1u : y) - ya;
-                const float *la = &xlo[(std::size_t{z} * ny + a) * w], *lb = &xlo[(std::size_t{z} * ny + b) * w],
-                            *lc = &xlo[(std::size_t{z} * ny + c) * w];
-                const float *ha = &xhi[(std::size_t{z} * ny + a) * w], *hb = &xhi[(std::size_t{z} * ny + b) * w],
-                            *hc = &xhi[(std::size_t{z} * ny + c) * w];
-                float* lo = &ylo[(std::size_t{z} * 8u + (y - y0)) * w];
-                float* hi = &yhi[(std::size_t{z} * 8u + (y - y0)) * w];
-                for (std::uint32_t x = 0; x < w; ++x) {
-                    lo[x] = std::min(std::min(la[x], lb[x]), lc[x]);
-                    hi[x] = std::max(std::max(ha[x], hb[x]), hc[x]);
-                }
+                std::size_t at = (std::size_t{z} * 8u + (y - y0)) * w;
+                ess_min3(&xlo[(std::size_t{z} * ny + a) * w], &xlo[(std::size_t{z} * ny + b) * w],
+                         &xlo[(std::size_t{z} * ny + c) * w], &ylo[at], w);
+                ess_max3(&xhi[(std::size_t{z} * ny + a) * w], &xhi[(std::size_t{z} * ny + b) * w],
+                         &xhi[(std::size_t{z} * ny + c) * w], &yhi[at], w);
             }
-        // z, eps and the border, the classification, the blocks' accumulators.
+        // z, then the classification (eps, the border), the blocks' accumulators.
         std::fill(acc.begin(), acc.begin() + (end - bx), shared::sylva_kd_box_acc_zero());
         for (std::uint32_t z = z0; z < z1; ++z) {
             std::uint32_t a = (z > 0u ? z - 1u : z) - za, b = z - za, c = (z + 1u < d.z ? z + 1u : z) - za;
             for (std::uint32_t y = y0; y < y1; ++y) {
                 std::size_t r = y - y0;
-                const float *la = &ylo[(std::size_t{a} * 8u + r) * w], *lb = &ylo[(std::size_t{b} * 8u + r) * w],
-                            *lc = &ylo[(std::size_t{c} * 8u + r) * w];
-                const float *ha = &yhi[(std::size_t{a} * 8u + r) * w], *hb = &yhi[(std::size_t{b} * 8u + r) * w],
-                            *hc = &yhi[(std::size_t{c} * 8u + r) * w];
-                // Held in [-1, 2]: the buckets clamp to [0, 1] anyway, and an infinite density
-                // then still compares below a run's end of +inf.
-                for (std::uint32_t x = 0; x < w; ++x) {
-                    dlo[x] = std::clamp(std::min(std::min(la[x], lb[x]), lc[x]) - eps, -1.0f, 2.0f);
-                    dhi[x] = std::clamp(std::max(std::max(ha[x], hb[x]), hc[x]) + eps, -1.0f, 2.0f);
-                }
-                if (y == 0u || z == 0u || y + 1u == d.y || z + 1u == d.z) {  // a face of the grid: the whole row
-                    for (std::uint32_t x = 0; x < w; ++x) dlo[x] = std::min(dlo[x], border_lo), dhi[x] = std::max(dhi[x], border_hi);
-                } else {
-                    for (std::uint32_t x : {0u, w - 1u})
-                        if (x0 + x == 0u || x0 + x + 1u == d.x)
-                            dlo[x] = std::min(dlo[x], border_lo), dhi[x] = std::max(dhi[x], border_hi);
-                }
-                classify(w);
+                ess_min3(&ylo[(std::size_t{a} * 8u + r) * w], &ylo[(std::size_t{b} * 8u + r) * w],
+                         &ylo[(std::size_t{c} * 8u + r) * w], zlo.data(), w);
+                ess_max3(&yhi[(std::size_t{a} * 8u + r) * w], &yhi[(std::size_t{b} * 8u + r) * w],
+                         &yhi[(std::size_t{c} * 8u + r) * w], zhi.data(), w);
+                classify_row(w, x0, y, z);
                 for (std::uint32_t k = 0; k < end - bx; ++k)
                     shared::sylva_kd_box_accumulate(acc[k], kdtree::detail::row_mask(occ.data() + k * 8u, std::min(8u, w - k * 8u)),
                                                     y & 7u, z & 7u);
@@ -660,8 +851,9 @@ void ess_block_words(const Rows& rows, const EssClassifier& cls, const GridBorde
     border.check();
     EssBucketMap bucket(cls.entries());
     EssVisibleRuns runs = ess_visible_runs(cls, bucket);
+    EssRawRuns<typename Rows::value_type> raw_runs = ess_raw_runs(rows, runs);
     exec.parallel_for(0, std::size_t{nb.y} * nb.z, 1, [&](std::size_t lo, std::size_t hi) {
-        EssBlockRowPass<Rows> pass(rows, cls, bucket, runs, border, verdicts.data(), words.data());
+        EssBlockRowPass<Rows> pass(rows, cls, bucket, runs, raw_runs, border, verdicts.data(), words.data());
         for (std::size_t r = lo; r < hi; ++r)
             pass.run(static_cast<std::uint32_t>(r % nb.y), static_cast<std::uint32_t>(r / nb.y));
     });
@@ -681,12 +873,15 @@ void ess_block_words(const volume::DensityGrid& g, const EssClassifier& cls, con
     detail::ess_block_words(detail::EssFloatRows{g.dims, g.values.data()}, cls, border, verdicts, exec, words);
 }
 
-/// The same over grid words in any format, with their own border.
+/// The same over grid words in any format, with their own border; a dense uint8 / uint16 grid
+/// is read as its raw voxels.
 template <Executor X>
 void ess_block_words(const GridWords& g, const EssClassifier& cls, const std::vector<std::uint8_t>& verdicts, X& exec,
                      std::vector<std::uint32_t>& words) {
     g.check_words("kd-dvr");
-    detail::ess_block_words(detail::EssWordRows{g.dims, &g}, cls, g.sampling.border, verdicts, exec, words);
+    detail::ess_with_rows(g, [&](const auto& rows) {
+        detail::ess_block_words(rows, cls, g.sampling.border, verdicts, exec, words);
+    });
 }
 
 }  // namespace sylva
