@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <string>
 
 #include "scenes.hpp"
@@ -271,6 +272,59 @@ TEST_CASE("more pending hits than the window holds: extra passes keep the order 
     CHECK(same_hits(got.hits, want));
     CHECK(got.passes > 1u);  // 200 pending hits, a window of 64
     CHECK(got.status == SYLVA_ITER_DONE);
+}
+
+namespace {
+/// Spheres with a cluster of 150 nearly coincident ones (more pending hits than the window, so
+/// rays through it take several passes) among 1,500 random ones, 64 x 48 pixels of it.
+std::vector<Sphere> clustered_spheres() {
+    auto ps = spheres(1500, 301);
+    for (int i = 0; i < 150; ++i)
+        ps.push_back(Sphere{vec3(0.5f + 0.0004f * float(i % 5), 0.5f, 0.5f), 0.12f, vec4(0.8f, 0.4f, 0.2f, 0.02f), 1.0f});
+    return ps;
+}
+}  // namespace
+
+TEST_CASE("compositing paused at a loop budget and resumed equals compositing in one stretch, bit for bit",
+          "[elements]") {
+    // What a device with a loop limit does (sylva::vk::ElementKernel::render): a ray pauses once
+    // its loop iterations pass the budget and continues from its last hit in a later stretch.
+    Scene<Sphere> s(clustered_spheres());
+    const std::uint32_t w = 64, h = 48;
+    CameraFrame cam = view(w, h);
+    shared::Words words{s.words.data(), s.words.size()}, recs{s.records.data(), s.records.size()};
+    auto wc = static_cast<std::uint32_t>(s.words.size());
+    for (std::uint32_t budget : {1u, 40u, 300u, 3000u}) {
+        std::size_t resumed = 0, lit = 0, max_stretches = 0;
+        for (std::uint32_t y = 0; y < h; ++y)
+            for (std::uint32_t x = 0; x < w; ++x) {
+                Ray r = pixel_ray(cam, ParticleRenderConfig{}.rays, x, y, w, h);
+                std::uint32_t steps, status;
+                vec4 one = shared::sylva_elements_composite<Sphere, BihIndex>(words, wc, recs, s.count(), r.origin,
+                                                                             r.direction, 0.0f, shared::sylva_inf(),
+                                                                             0.99f, steps, status);
+                shared::SylvaCompositeResume st = shared::sylva_composite_fresh();
+                std::size_t stretches = 0;
+                do {
+                    shared::sylva_elements_composite_resume<Sphere, BihIndex>(words, wc, recs, s.count(), r.origin,
+                                                                             r.direction, 0.0f, shared::sylva_inf(),
+                                                                             0.99f, budget, st);
+                    ++stretches;
+                } while (st.status == SYLVA_ITER_RUNNING && stretches < 100000);
+                INFO("budget " << budget << ", pixel " << x << "," << y << ", " << stretches << " stretches");
+                REQUIRE(std::memcmp(&one, &st.rgba, sizeof one) == 0);
+                CHECK(st.status == status);
+                CHECK(st.steps >= steps);  // a resumed ray walks its index again
+                if (stretches == 1) CHECK(st.steps == steps);
+                resumed += stretches > 1;
+                max_stretches = std::max(max_stretches, stretches);
+                lit += one.a > 0.1f;
+            }
+        CHECK(lit > w * h / 4);
+        CHECK(resumed > (budget <= 300u ? w * h / 10 : 0u));  // the budget made rays pause
+        WARN("budget " << budget << ": " << resumed << " of " << w * h << " rays resumed, up to " << max_stretches
+                       << " stretches");
+    }
 }
 
 namespace {

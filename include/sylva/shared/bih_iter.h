@@ -45,6 +45,7 @@ struct SylvaBihStack {
     uint st_node[SYLVA_BIH_STACK_SIZE];
     float st_in[SYLVA_BIH_STACK_SIZE];
     float st_out[SYLVA_BIH_STACK_SIZE];
+    float st_min_in[SYLVA_BIH_STACK_SIZE];  ///< the smallest st_in of entries 0..i (sylva_bih_stack_min_in)
     vec3 st_lo[SYLVA_BIH_STACK_SIZE];
     vec3 st_hi[SYLVA_BIH_STACK_SIZE];
 };
@@ -117,6 +118,14 @@ SYLVA_FN void sylva_bih_init(SYLVA_OUT(SylvaBihIter) it, SYLVA_BUF(words), uint 
     it.t_limit = t_max;
     it.leaf_lo = vec3(0.0f);
     it.leaf_hi = vec3(0.0f);
+    // Defined before the refusal below, so that no field of a refused iterator is read unset.
+    it.org = vec3(0.0f);
+    it.rcp = vec3(0.0f);
+    it.parallel = uvec3(0u);
+    it.lo = vec3(0.0f);
+    it.hi = vec3(0.0f);
+    it.t_in = 0.0f;
+    it.t_out = 0.0f;
     if (it.hdr.valid == 0u || it.hdr.max_depth > uint(SYLVA_BIH_STACK_SIZE)) {
         it.status = SYLVA_ITER_ERROR;
         return;
@@ -157,6 +166,7 @@ SYLVA_FN void sylva_bih_push(SYLVA_INOUT(SylvaBihIter) it, uint node, vec2 t, ve
     SYLVA_BIH_STACK(it).st_node[it.sp] = node;
     SYLVA_BIH_STACK(it).st_in[it.sp] = t.x;
     SYLVA_BIH_STACK(it).st_out[it.sp] = t.y;
+    SYLVA_BIH_STACK(it).st_min_in[it.sp] = (it.sp > 0u) ? sylva_min(SYLVA_BIH_STACK(it).st_min_in[it.sp - 1u], t.x) : t.x;
     SYLVA_BIH_STACK(it).st_lo[it.sp] = lo;
     SYLVA_BIH_STACK(it).st_hi[it.sp] = hi;
     it.sp = it.sp + 1u;
@@ -176,6 +186,12 @@ SYLVA_FN bool sylva_bih_pop(SYLVA_INOUT(SylvaBihIter) it) {
         }
     }
     return false;
+}
+
+/// The smallest entry t among the subtrees on the stack (+inf when it is empty), in O(1): pops
+/// leave the prefix minima of the entries below them intact.
+SYLVA_FN float sylva_bih_stack_min_in(SYLVA_INOUT(SylvaBihIter) it) {
+    return (it.sp > 0u) ? SYLVA_BIH_STACK(it).st_min_in[it.sp - 1u] : sylva_inf();
 }
 
 /// Where the children of inner node `n` are stored: (left, right); SYLVA_NO_NODE if empty.

@@ -76,8 +76,7 @@ SYLVA_FN bool sylva_index_keeps(SYLVA_INOUT(SylvaBihIter) it, float t, float t_i
 SYLVA_FN float sylva_index_bound(SYLVA_INOUT(SylvaBihIter) it, float t_out) {
     SYLVA_UNUSED(t_out);
     float b = (it.node != SYLVA_NO_NODE) ? it.t_in : sylva_inf();
-    for (uint i = 0u; i < it.sp; i++) b = sylva_min(b, SYLVA_BIH_STACK(it).st_in[i]);
-    return b;
+    return sylva_min(b, sylva_bih_stack_min_in(it));
 }
 
 SYLVA_FN void sylva_index_clip(SYLVA_INOUT(SylvaBihIter) it, float t) { sylva_bih_clip(it, t); }

@@ -78,6 +78,9 @@ struct SylvaHitIter {
     uint steps_before;///< index steps of the passes before this one
     uint wanted;      ///< hits the caller will ask for (0xFFFFFFFF: all); sylva_hits_want
     float clip_t;     ///< this pass skips leaves entered after clip_t, so it keeps no hit past it
+    uint work;        ///< loop iterations run so far, bar the index's (for a device's loop budget)
+    uint work_limit;  ///< sylva_hits_next pauses once work + 3 x index steps pass it (0xFFFFFFFF: never)
+    uint paused;      ///< 1 once it paused (status stays RUNNING: the caller may resume the ray)
     uint status;      ///< SYLVA_ITER_* of the index
 #ifdef __cplusplus
     SylvaHitWindow window;
@@ -103,6 +106,7 @@ SYLVA_FN void sylva_hit_drop_latest(SYLVA_INOUT(SylvaHitIter) h) {
     }
     h.count = h.count - 1u;
     h.truncated = 1u;
+    h.work = h.work + h.count;
 }
 
 /// Inserts a hit into the window, keeping it sorted latest first. A hit not after the last one
@@ -123,6 +127,7 @@ SYLVA_FN void sylva_hit_insert(SYLVA_INOUT(SylvaHitIter) h, uint e, float t0, fl
         SYLVA_HIT_WINDOW_OF(h).w_t1[i] = SYLVA_HIT_WINDOW_OF(h).w_t1[i - 1u];
         i = i - 1u;
     }
+    h.work = h.work + (h.count - i);
     SYLVA_HIT_WINDOW_OF(h).w_elem[i] = e;
     SYLVA_HIT_WINDOW_OF(h).w_t0[i] = t0;
     SYLVA_HIT_WINDOW_OF(h).w_t1[i] = t1;
@@ -174,6 +179,9 @@ SYLVA_FN void sylva_hits_init(SYLVA_OUT(SylvaHitIter) h, SYLVA_OUT(SylvaIndexIte
     h.passes = 0u;
     h.steps_before = 0u;
     h.wanted = 0xFFFFFFFFu;
+    h.work = 0u;
+    h.work_limit = 0xFFFFFFFFu;
+    h.paused = 0u;
     sylva_hits_start_pass SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
 }
 
@@ -251,6 +259,16 @@ SYLVA_FN bool sylva_hits_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaInde
     hit.t0 = 0.0f;
     hit.t1 = 0.0f;
     while (h.status != SYLVA_ITER_ERROR) {
+        h.work = h.work + 1u;
+        if (h.work_limit != 0xFFFFFFFFu) {
+            // The index's loop iterations are bounded by three times its steps (visits, pops,
+            // one more a leaf handed out).
+            uint steps = h.steps_before + sylva_index_steps(it);
+            if (h.work > h.work_limit || steps > (h.work_limit - h.work) / 3u) {
+                h.paused = 1u;
+                return false;
+            }
+        }
         bool leaf_left = h.leaf_k < h.leaf_count;
         if (h.count > 0u) {
             // Safe once every leaf still to come starts strictly after the hit: a later leaf may
@@ -304,6 +322,74 @@ SYLVA_FN void sylva_composite_medium(SYLVA_INOUT(SylvaComposite) acc, vec4 mediu
     acc.alpha = acc.alpha + k;
 }
 
+/// Where a ray's compositing stands, for a device that resumes it in another dispatch (a device
+/// that cuts loops short: lavapipe ends an invocation's loops after 65,535 iterations). `rgba`:
+/// premultiplied colour and opacity so far; `last_elem` / `last_t0`: the last hit composited
+/// (SYLVA_NO_NODE: none yet); `steps`: index nodes visited so far, over all dispatches;
+/// `status`: SYLVA_ITER_RUNNING while the ray stopped at its loop budget and is to be resumed,
+/// else DONE or ERROR.
+struct SylvaCompositeResume {
+    vec4 rgba;
+    uint last_elem;
+    float last_t0;
+    uint steps;
+    uint status;
+};
+
+/// A ray whose compositing has not started.
+SYLVA_FN SylvaCompositeResume sylva_composite_fresh() {
+    SylvaCompositeResume r;
+    r.rgba = vec4(0.0f);
+    r.last_elem = SYLVA_NO_NODE;
+    r.last_t0 = 0.0f;
+    r.steps = 0u;
+    r.status = SYLVA_ITER_RUNNING;
+    return r;
+}
+
+/// Composites the elements the ray crosses, front to back in hit order, each over its own
+/// interval [t0, t1] (sylva_elem_medium), until the opacity reaches alpha_stop, continuing from
+/// `r` (sylva_composite_fresh, or a stretch that stopped at its budget): after the last hit
+/// composited it starts a pass for the hits after it, which is how a window overflow continues
+/// (the same hits in the same order, so the same colour as in one stretch). Once it composited
+/// a hit, it pauses as soon as the loop iterations of this stretch (the hit iterator's, plus
+/// three times the index steps, which bound the index's loops) exceed `budget`, leaving r.status
+/// RUNNING (the work since the last hit is done again on resuming); budget 0xFFFFFFFF: no limit.
+SYLVA_ELEM_TEMPLATE
+SYLVA_FN void sylva_elements_composite_resume(SYLVA_BUF(words), uint word_count, SYLVA_BUF(elems), uint elem_count,
+                                              vec3 o, vec3 d, float t_min, float t_max, float alpha_stop, uint budget,
+                                              SYLVA_INOUT(SylvaCompositeResume) r) {
+    SylvaHitIter h;
+    SylvaIndexIter it;
+    sylva_hits_init SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), word_count, elem_count, o, d, t_min, t_max);
+    if (r.last_elem != SYLVA_NO_NODE) {
+        h.emitted = 1u;
+        h.last_t0 = r.last_t0;
+        h.last_elem = r.last_elem;
+    }
+    SylvaComposite acc;
+    acc.rgb = vec3(r.rgba.x, r.rgba.y, r.rgba.z);
+    acc.alpha = r.rgba.w;
+    SylvaHit hit;
+    while (acc.alpha < alpha_stop &&
+           sylva_hits_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), hit)) {
+        SylvaElem x;
+        sylva_elem_load(SYLVA_PASS_BUF(elems), hit.elem, x);
+        sylva_composite_medium(acc, sylva_elem_medium(x, o, d, hit.t0, hit.t1));
+        r.last_elem = hit.elem;
+        r.last_t0 = hit.t0;
+        h.work_limit = budget;  // one hit made: the ray may pause from here on (progress each stretch)
+    }
+    // Paused: the index may have finished its pass (status DONE) with hits still in the window.
+    bool paused = h.paused != 0u && h.status != SYLVA_ITER_ERROR;
+    // Still running below alpha_stop without pausing: a device cut the loop short (see
+    // sylva_hits_next); the ray is marked, never drawn short.
+    if (!paused && acc.alpha < alpha_stop && h.status == SYLVA_ITER_RUNNING) h.status = SYLVA_ITER_ERROR;
+    r.rgba = vec4(acc.rgb.x, acc.rgb.y, acc.rgb.z, acc.alpha);
+    r.steps = r.steps + sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
+    r.status = paused ? SYLVA_ITER_RUNNING : (h.status == SYLVA_ITER_ERROR ? SYLVA_ITER_ERROR : SYLVA_ITER_DONE);
+}
+
 /// Composites the elements the ray crosses, front to back in hit order, each over its own
 /// interval [t0, t1] (sylva_elem_medium), until the opacity reaches alpha_stop. Returns
 /// premultiplied RGB and opacity.
@@ -311,24 +397,12 @@ SYLVA_ELEM_TEMPLATE
 SYLVA_FN vec4 sylva_elements_composite(SYLVA_BUF(words), uint word_count, SYLVA_BUF(elems), uint elem_count, vec3 o,
                                        vec3 d, float t_min, float t_max, float alpha_stop, SYLVA_OUT(uint) steps,
                                        SYLVA_OUT(uint) status) {
-    SylvaHitIter h;
-    SylvaIndexIter it;
-    sylva_hits_init SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), word_count, elem_count, o, d, t_min, t_max);
-    SylvaComposite acc;
-    acc.rgb = vec3(0.0f);
-    acc.alpha = 0.0f;
-    SylvaHit hit;
-    while (acc.alpha < alpha_stop &&
-           sylva_hits_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), hit)) {
-        SylvaElem x;
-        sylva_elem_load(SYLVA_PASS_BUF(elems), hit.elem, x);
-        sylva_composite_medium(acc, sylva_elem_medium(x, o, d, hit.t0, hit.t1));
-    }
-    // Still running below alpha_stop: a device cut the loop short (see sylva_hits_next).
-    if (acc.alpha < alpha_stop && h.status == SYLVA_ITER_RUNNING) h.status = SYLVA_ITER_ERROR;
-    steps = sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
-    status = h.status;
-    return vec4(acc.rgb.x, acc.rgb.y, acc.rgb.z, acc.alpha);
+    SylvaCompositeResume r = sylva_composite_fresh();
+    sylva_elements_composite_resume SYLVA_ELEM_TARGS(SYLVA_PASS_BUF(words), word_count, SYLVA_PASS_BUF(elems), elem_count,
+                                                     o, d, t_min, t_max, alpha_stop, 0xFFFFFFFFu, r);
+    steps = r.steps;
+    status = r.status;
+    return r.rgba;
 }
 
 SYLVA_END_NAMESPACE

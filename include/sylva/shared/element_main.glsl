@@ -8,8 +8,15 @@
 // index steps, 1 if more hits followed the last one written, then per hit (record index,
 // t0 bits, t1 bits), in order (sylva/shared/element_kernels.h). max_hits 1 is the first hit.
 // Mode 1 (image): one invocation per pixel of a width x height image, its ray from the camera
-// (pinhole or orthographic) or binding 5 (ray_source, sylva/shared/ray_buffer.h); writes 6 words
-// per pixel: premultiplied R, G, B, opacity (float bits), steps, status.
+// (pinhole or orthographic) or binding 5 (ray_source, sylva/shared/ray_buffer.h); writes 8 words
+// per pixel: premultiplied R, G, B, opacity (float bits), steps, status (bits 0-7; bits 8-31
+// the times the loop limiter cut the ray short), then the last hit composited (t0
+// bits, record index; sylva_elements_composite_resume). A ray that spent loop_budget
+// iterations pauses (after a hit) with status SYLVA_ITER_RUNNING, as does a ray the device's
+// loop limiter cut short (sylva_loops_cut); a dispatch with
+// `resume` 1 continues those rays from their 8 words and leaves the others as they are
+// (sylva::vk::ElementKernel::render dispatches over the paused rays' rectangle, from pixel
+// (origin_x, origin_y), until none is left running).
 #ifndef SYLVA_SHARED_ELEMENT_MAIN_GLSL
 #define SYLVA_SHARED_ELEMENT_MAIN_GLSL
 
@@ -49,27 +56,67 @@ void sylva_element_hits_main(uint r) {
     sylva_out_data[out_at + 3u] = more;
 }
 
+/// True when the device's loop limiter has run out for this invocation (lavapipe: 65,535 loop
+/// iterations an invocation batch; from then on every loop stops after one iteration): a loop
+/// of two iterations, whose count the compiler cannot see, ran once.
+bool sylva_loops_cut() {
+    uint trips = 2u + (sylva_pc.width >> 31u);  // 2 (width < 2^31), not a compile-time constant
+    uint ran = 0u;
+    for (uint k = 0u; k < trips; k++) ran = ran + 1u;
+    return ran < trips;
+}
+
+/// Times a ray may be cut short by the loop limiter before it is marked an error; each cut
+/// halves the ray's loop budget.
+#define SYLVA_MAX_CUTS 12u
+
 void sylva_element_image_main(uvec2 px) {
+    uint at = (px.y * sylva_pc.width + px.x) * 8u;
+    SylvaCompositeResume r = sylva_composite_fresh();
+    uint cuts = 0u;
+    if (sylva_pc.resume != 0u) {
+        uint word = sylva_out_data[at + 5u];
+        if ((word & 255u) != SYLVA_ITER_RUNNING) return;  // finished in an earlier dispatch
+        cuts = word >> 8u;
+        r.rgba = vec4(uintBitsToFloat(sylva_out_data[at]), uintBitsToFloat(sylva_out_data[at + 1u]),
+                      uintBitsToFloat(sylva_out_data[at + 2u]), uintBitsToFloat(sylva_out_data[at + 3u]));
+        r.steps = sylva_out_data[at + 4u];
+        r.last_t0 = uintBitsToFloat(sylva_out_data[at + 6u]);
+        r.last_elem = sylva_out_data[at + 7u];
+    }
+    SylvaCompositeResume start = r;
     vec3 eye = vec3(sylva_pc.cam[0], sylva_pc.cam[1], sylva_pc.cam[2]);
     vec3 w = vec3(sylva_pc.cam[3], sylva_pc.cam[4], sylva_pc.cam[5]);
     vec3 u = vec3(sylva_pc.cam[6], sylva_pc.cam[7], sylva_pc.cam[8]);
     vec3 v = vec3(sylva_pc.cam[9], sylva_pc.cam[10], sylva_pc.cam[11]);
     SylvaRay ray = sylva_pixel_ray_from(0u, sylva_pc.ray_source, eye, w, u, v, px.x, px.y, sylva_pc.width, sylva_pc.height);
-    uint steps;
-    uint status;
-    vec4 c = sylva_elements_composite(0u, sylva_pc.word_count, 0u, sylva_pc.elem_count, ray.origin, ray.dir, 0.0f,
-                                      sylva_inf(), sylva_pc.alpha_stop, steps, status);
-    uint at = (px.y * sylva_pc.width + px.x) * 6u;
-    sylva_out_data[at] = floatBitsToUint(c.x);
-    sylva_out_data[at + 1u] = floatBitsToUint(c.y);
-    sylva_out_data[at + 2u] = floatBitsToUint(c.z);
-    sylva_out_data[at + 3u] = floatBitsToUint(c.w);
-    sylva_out_data[at + 4u] = steps;
-    sylva_out_data[at + 5u] = status;
+    uint budget = (cuts == 0u) ? sylva_pc.loop_budget : max(sylva_pc.loop_budget >> min(cuts, 31u), 16u);
+    sylva_elements_composite_resume(0u, sylva_pc.word_count, 0u, sylva_pc.elem_count, ray.origin, ray.dir, 0.0f,
+                                    sylva_inf(), sylva_pc.alpha_stop, budget, r);
+    // Asked of every ray, whatever its status: a cut can also end a walk as if it were done.
+    bool cut = sylva_loops_cut();
+    if (cut) {
+        // The limiter stopped this batch's loops part way, so nothing this stretch computed is to
+        // be trusted (a status of done or error may be its doing): the ray starts the stretch
+        // again in a later dispatch with half the budget, so that it pauses before the limiter,
+        // or is marked an error after SYLVA_MAX_CUTS cuts.
+        cuts = cuts + 1u;
+        r = start;
+        r.status = (cuts > SYLVA_MAX_CUTS) ? SYLVA_ITER_ERROR : SYLVA_ITER_RUNNING;
+    }
+    sylva_out_data[at] = floatBitsToUint(r.rgba.x);
+    sylva_out_data[at + 1u] = floatBitsToUint(r.rgba.y);
+    sylva_out_data[at + 2u] = floatBitsToUint(r.rgba.z);
+    sylva_out_data[at + 3u] = floatBitsToUint(r.rgba.w);
+    sylva_out_data[at + 4u] = r.steps;
+    sylva_out_data[at + 5u] = r.status | (cuts << 8u);
+    sylva_out_data[at + 6u] = floatBitsToUint(r.last_t0);
+    sylva_out_data[at + 7u] = r.last_elem;
 }
 
 void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
+    // A resuming dispatch covers the rectangle of the paused rays, from (origin_x, origin_y).
+    uvec2 px = gl_GlobalInvocationID.xy + uvec2(sylva_pc.origin_x, sylva_pc.origin_y);
     if (px.x >= sylva_pc.width || px.y >= sylva_pc.height) return;
     if (sylva_pc.mode == 0u) {
         uint r = px.y * sylva_pc.width + px.x;

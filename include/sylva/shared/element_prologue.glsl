@@ -14,7 +14,7 @@
 // sylva/shared/ray_buffer.h, when ray_source is SYLVA_RAYS_BUFFER, else a dummy); 6 output (see
 // element_main.glsl).
 // Specialization constants: 0 split shift, 1 BIH stack entries (>= the tree's depth).
-// Push constants: 84 bytes, sylva::vk::ElementPush (sylva/vulkan/elements.hpp).
+// Push constants: 100 bytes, sylva::vk::ElementPush (sylva/vulkan/elements.hpp).
 #ifndef SYLVA_SHARED_ELEMENT_PROLOGUE_GLSL
 #define SYLVA_SHARED_ELEMENT_PROLOGUE_GLSL
 
@@ -28,7 +28,7 @@ layout(constant_id = 1) const int STACK_SIZE = 64;
 SYLVA_SPLIT_WORDS(words, 0, SPLIT_SHIFT)
 layout(std430, binding = 4) readonly buffer SylvaElems { uint sylva_elems_data[]; };
 layout(std430, binding = 5) readonly buffer SylvaRays { float sylva_rays_data[]; };
-layout(std430, binding = 6) writeonly buffer SylvaOut { uint sylva_out_data[]; };
+layout(std430, binding = 6) buffer SylvaOut { uint sylva_out_data[]; };  // image mode reads it back to resume
 layout(push_constant) uniform SylvaElementPush {
     float cam[12];      // eye, forward w, right u, up v (sylva/shared/camera.h); image mode
     uint width;         // image mode: pixels; hits mode: rays per grid row
@@ -40,6 +40,10 @@ layout(push_constant) uniform SylvaElementPush {
     float alpha_stop;   // image mode: early ray termination
     uint ray_count;     // hits mode: rays in binding 5
     uint ray_source;    // image mode: SYLVA_RAYS_* (the camera as pinhole or orthographic, or binding 5)
+    uint resume;        // image mode: 0 a fresh frame; 1 continue the rays a dispatch before paused
+    uint loop_budget;   // image mode: loop iterations a ray may run a dispatch (0xFFFFFFFF: no limit)
+    uint origin_x;      // image mode: the pixel the dispatch's invocation (0, 0) renders
+    uint origin_y;
 } sylva_pc;
 
 /// Word i of the element records, 0 past their end (the host's Words does the same).
