@@ -28,6 +28,7 @@ uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i
 
 #include "sylva/shared/iso_render.h"
 #include "sylva/shared/rays.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void main() {
     SylvaIsoParams p = sylva_iso_read_params(0u);
@@ -45,5 +46,5 @@ void main() {
     pixels[at + 4u] = r.steps;
     pixels[at + 5u] = r.cells;
     pixels[at + 6u] = r.hits;
-    pixels[at + 7u] = r.status;
+    pixels[at + 7u] = sylva_loops_cut() ? SYLVA_ITER_ERROR : r.status;  // a ray the loop limiter cut is marked
 }

@@ -44,6 +44,7 @@ uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i
 
 #include "sylva/shared/ray_buffer.h"
 #include "sylva/shared/octree_particles.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
@@ -57,7 +58,7 @@ void main() {
     uint status;
     vec4 c = sylva_octe_render_particles(0u, pc.word_count, 0u, pc.records, ray.origin, ray.dir, 0.0f, sylva_inf(),
                                          pc.alpha_stop, steps, status);
-    bool cut_short = status == SYLVA_ITER_RUNNING && c.w < pc.alpha_stop;
+    bool cut_short = (status == SYLVA_ITER_RUNNING && c.w < pc.alpha_stop) || sylva_loops_cut();
     uint at = (px.y * pc.width + px.x) * 5u;
     pixels[at] = floatBitsToUint(c.x);
     pixels[at + 1u] = floatBitsToUint(c.y);

@@ -33,6 +33,7 @@ uint sylva_load_rays(uint i) { return i < uint(ray_words.length()) ? ray_words[i
 
 #include "sylva/shared/ray_buffer.h"
 #include "sylva/shared/particles.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
@@ -50,5 +51,6 @@ void main() {
     pixels[at + 1u] = floatBitsToUint(c.y);
     pixels[at + 2u] = floatBitsToUint(c.z);
     pixels[at + 3u] = floatBitsToUint(c.w);
-    pixels[at + 4u] = (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps;
+    bool cut = sylva_loops_cut();  // a ray the device's loop limiter cut short is marked
+    pixels[at + 4u] = (status == SYLVA_ITER_ERROR || cut) ? 0xFFFFFFFFu : steps;
 }

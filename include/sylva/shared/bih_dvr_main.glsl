@@ -34,6 +34,7 @@ SYLVA_SPLIT_WORDS_COUNTED(ranges, 4, RANGES_SHIFT, RANGE_PARTS)
 
 #include "sylva/shared/rays.h"
 #include "sylva/shared/bih_dvr.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
@@ -43,5 +44,6 @@ void main() {
     uint steps;
     uint status;
     vec4 c = sylva_bih_volume_ray(0u, 0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps, status);
-    sylva_io_store_pixel(px, p.width, c, (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps);
+    bool cut = sylva_loops_cut();  // a ray the device's loop limiter cut short is marked
+    sylva_io_store_pixel(px, p.width, c, (status == SYLVA_ITER_ERROR || cut) ? 0xFFFFFFFFu : steps);
 }

@@ -41,6 +41,7 @@ SYLVA_SPLIT_WORDS_COUNTED(grid, 0, SPLIT_SHIFT, GRID_PARTS)
 
 #include "sylva/shared/rays.h"
 #include "sylva/shared/dvr.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
@@ -51,5 +52,6 @@ void main() {
     SylvaRay ray = sylva_pixel_ray(0u, 0u, p, px.x, px.y);
     uint steps;
     vec4 c = sylva_dvr_march(0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps);
-    sylva_io_store_pixel(px, p.width, c, steps);
+    bool cut = sylva_loops_cut();  // a ray the device's loop limiter cut short is marked
+    sylva_io_store_pixel(px, p.width, c, cut ? 0xFFFFFFFFu : steps);
 }

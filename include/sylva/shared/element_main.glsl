@@ -23,6 +23,7 @@
 #include "sylva/shared/ray_buffer.h"
 #include "sylva/shared/element_bih.h"
 #include "sylva/shared/element_kernels.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void sylva_element_hits_main(uint r) {
     uint at = r * 8u;
@@ -47,23 +48,14 @@ void sylva_element_hits_main(uint r) {
         sylva_out_data[out_at + 6u + 3u * n] = floatBitsToUint(hit.t1);
         n = n + 1u;
     }
-    // Fewer than max_hits and still running: the device cut the loop short (lavapipe: 65,535
-    // iterations a loop); mark the ray instead of handing out a short list.
+    // Fewer than max_hits and still running, or any cut at all: the device cut the loops short
+    // (sylva/shared/loop_cut.glsl); mark the ray instead of handing out a short list.
     if (more == 0u && h.status == SYLVA_ITER_RUNNING) h.status = SYLVA_ITER_ERROR;
+    if (sylva_loops_cut()) h.status = SYLVA_ITER_ERROR;
     sylva_out_data[out_at] = n;
     sylva_out_data[out_at + 1u] = h.status | (h.passes << 8u);
     sylva_out_data[out_at + 2u] = sylva_hits_steps(h, it);
     sylva_out_data[out_at + 3u] = more;
-}
-
-/// True when the device's loop limiter has run out for this invocation (lavapipe: 65,535 loop
-/// iterations an invocation batch; from then on every loop stops after one iteration): a loop
-/// of two iterations, whose count the compiler cannot see, ran once.
-bool sylva_loops_cut() {
-    uint trips = 2u + (sylva_pc.width >> 31u);  // 2 (width < 2^31), not a compile-time constant
-    uint ran = 0u;
-    for (uint k = 0u; k < trips; k++) ran = ran + 1u;
-    return ran < trips;
 }
 
 /// Times a ray may be cut short by the loop limiter before it is marked an error; each cut

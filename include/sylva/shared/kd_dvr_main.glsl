@@ -46,6 +46,7 @@ SYLVA_SPLIT_WORDS_COUNTED(words, 4, KD_SHIFT, KD_PARTS)
 
 #include "sylva/shared/rays.h"
 #include "sylva/shared/kd_dvr.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
@@ -57,5 +58,6 @@ void main() {
     uint steps;
     uint status;
     vec4 c = sylva_kd_dvr_march(0u, 0u, 0u, p, ray.origin, ray.dir, 0.0f, sylva_inf(), steps, status);
-    sylva_io_store_pixel(px, p.width, c, (status == SYLVA_ITER_ERROR) ? 0xFFFFFFFFu : steps);
+    bool cut = sylva_loops_cut();  // a ray the device's loop limiter cut short is marked
+    sylva_io_store_pixel(px, p.width, c, (status == SYLVA_ITER_ERROR || cut) ? 0xFFFFFFFFu : steps);
 }

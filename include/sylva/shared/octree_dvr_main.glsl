@@ -77,6 +77,7 @@ uint sylva_load_octmask(uint i) { return i < uint(octmask_words.length()) ? octm
 #include "sylva/shared/rays.h"
 #include "sylva/shared/octree_dvr.h"
 #include "sylva/shared/octree_iso.h"
+#include "sylva/shared/loop_cut.glsl"
 
 void main() {
     SylvaDvrParams p = sylva_dvr_params(0u);
@@ -111,6 +112,7 @@ void main() {
     // never ends RUNNING on the host (DONE at a hit or at the end, ERROR on a bad index), so
     // any RUNNING iso ray was cut short.
     bool cut_short = status == SYLVA_ITER_RUNNING && (pc.mode == 1u || !(c.w >= p.alpha_stop));
+    cut_short = cut_short || sylva_loops_cut();  // sylva/shared/loop_cut.glsl: any cut at all
     pixels[at + 4u] = (status == SYLVA_ITER_ERROR || cut_short) ? 0xFFFFFFFFu : steps;
 }
 
