@@ -79,8 +79,7 @@ struct SylvaHitIter {
     uint wanted;      ///< hits the caller will ask for (0xFFFFFFFF: all); sylva_hits_want
     float clip_t;     ///< this pass skips leaves entered after clip_t, so it keeps no hit past it
     uint work;        ///< loop iterations run so far, bar the index's (for a device's loop budget)
-    uint work_limit;  ///< sylva_hits_next pauses once work + 3 x index steps pass it (0xFFFFFFFF: never)
-    uint paused;      ///< 1 once it paused (status stays RUNNING: the caller may resume the ray)
+    uint paused;      ///< 1 once the caller paused it at a loop budget (sylva_elements_composite_resume)
     uint status;      ///< SYLVA_ITER_* of the index
 #ifdef __cplusplus
     SylvaHitWindow window;
@@ -180,7 +179,6 @@ SYLVA_FN void sylva_hits_init(SYLVA_OUT(SylvaHitIter) h, SYLVA_OUT(SylvaIndexIte
     h.steps_before = 0u;
     h.wanted = 0xFFFFFFFFu;
     h.work = 0u;
-    h.work_limit = 0xFFFFFFFFu;
     h.paused = 0u;
     sylva_hits_start_pass SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
 }
@@ -260,15 +258,6 @@ SYLVA_FN bool sylva_hits_next(SYLVA_INOUT(SylvaHitIter) h, SYLVA_INOUT(SylvaInde
     hit.t1 = 0.0f;
     while (h.status != SYLVA_ITER_ERROR) {
         h.work = h.work + 1u;
-        if (h.work_limit != 0xFFFFFFFFu) {
-            // The index's loop iterations are bounded by three times its steps (visits, pops,
-            // one more a leaf handed out).
-            uint steps = h.steps_before + sylva_index_steps(it);
-            if (h.work > h.work_limit || steps > (h.work_limit - h.work) / 3u) {
-                h.paused = 1u;
-                return false;
-            }
-        }
         bool leaf_left = h.leaf_k < h.leaf_count;
         if (h.count > 0u) {
             // Safe once every leaf still to come starts strictly after the hit: a later leaf may
@@ -349,12 +338,13 @@ SYLVA_FN SylvaCompositeResume sylva_composite_fresh() {
 
 /// Composites the elements the ray crosses, front to back in hit order, each over its own
 /// interval [t0, t1] (sylva_elem_medium), until the opacity reaches alpha_stop, continuing from
-/// `r` (sylva_composite_fresh, or a stretch that stopped at its budget): after the last hit
-/// composited it starts a pass for the hits after it, which is how a window overflow continues
-/// (the same hits in the same order, so the same colour as in one stretch). Once it composited
-/// a hit, it pauses as soon as the loop iterations of this stretch (the hit iterator's, plus
-/// three times the index steps, which bound the index's loops) exceed `budget`, leaving r.status
-/// RUNNING (the work since the last hit is done again on resuming); budget 0xFFFFFFFF: no limit.
+/// `r` (sylva_composite_fresh, or a stretch that paused): after the last hit composited it starts
+/// a pass for the hits after it, which is how a window overflow continues (the same hits in the
+/// same order, so the same colour as in one stretch). After a hit, once the loop iterations of
+/// this stretch (the hit iterator's, plus three times the index steps, which bound the index's
+/// loops) exceed `budget`, it pauses, leaving r.status RUNNING; budget 0xFFFFFFFF: no limit. A
+/// stretch always composites a hit before it pauses, so stretches make progress; the work before
+/// that first hit is not bounded.
 SYLVA_ELEM_TEMPLATE
 SYLVA_FN void sylva_elements_composite_resume(SYLVA_BUF(words), uint word_count, SYLVA_BUF(elems), uint elem_count,
                                               vec3 o, vec3 d, float t_min, float t_max, float alpha_stop, uint budget,
@@ -371,17 +361,20 @@ SYLVA_FN void sylva_elements_composite_resume(SYLVA_BUF(words), uint word_count,
     acc.rgb = vec3(r.rgba.x, r.rgba.y, r.rgba.z);
     acc.alpha = r.rgba.w;
     SylvaHit hit;
-    while (acc.alpha < alpha_stop &&
+    while (acc.alpha < alpha_stop && h.paused == 0u &&
            sylva_hits_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), hit)) {
         SylvaElem x;
         sylva_elem_load(SYLVA_PASS_BUF(elems), hit.elem, x);
         sylva_composite_medium(acc, sylva_elem_medium(x, o, d, hit.t0, hit.t1));
         r.last_elem = hit.elem;
         r.last_t0 = hit.t0;
-        h.work_limit = budget;  // one hit made: the ray may pause from here on (progress each stretch)
+        // The index's loop iterations are bounded by three times its steps (visits, pops, one
+        // more a leaf handed out).
+        uint steps = sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
+        if (budget != 0xFFFFFFFFu && (h.work > budget || steps > (budget - h.work) / 3u)) h.paused = 1u;
     }
     // Paused: the index may have finished its pass (status DONE) with hits still in the window.
-    bool paused = h.paused != 0u && h.status != SYLVA_ITER_ERROR;
+    bool paused = h.paused != 0u && h.status != SYLVA_ITER_ERROR && acc.alpha < alpha_stop;
     // Still running below alpha_stop without pausing: a device cut the loop short (see
     // sylva_hits_next); the ray is marked, never drawn short.
     if (!paused && acc.alpha < alpha_stop && h.status == SYLVA_ITER_RUNNING) h.status = SYLVA_ITER_ERROR;
