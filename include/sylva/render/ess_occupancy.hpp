@@ -29,8 +29,8 @@
 //    uint8 / uint16 grid is read as its raw voxels (EssRawRows): its density is nondecreasing in
 //    the raw value, so ranges and run bounds carry over, from a quarter (half) of the bytes and
 //    16 (8) lanes a vector. On the aneurism with the CT preset 4,567 of 32,768 blocks are read,
-//    and the first build of a binned tree takes 1.4-2 streaming passes instead of 40 (bonsai
-//    3.7-3.9, engine 2.5-2.9; README, "The first build a user runs").
+//    and the first build of a binned tree takes 1.35-2.0 streaming passes instead of 40 (bonsai
+//    2.8-3.9, engine 1.9-2.9, bench and sylva-render; README, "The first build a user runs").
 #ifndef SYLVA_RENDER_ESS_OCCUPANCY_HPP
 #define SYLVA_RENDER_ESS_OCCUPANCY_HPP
 
