@@ -79,7 +79,6 @@ struct SylvaHitIter {
     uint wanted;      ///< hits the caller will ask for (0xFFFFFFFF: all); sylva_hits_want
     float clip_t;     ///< this pass skips leaves entered after clip_t, so it keeps no hit past it
     uint work;        ///< loop iterations run so far, bar the index's (for a device's loop budget)
-    uint paused;      ///< 1 once the caller paused it at a loop budget (sylva_elements_composite_resume)
     uint status;      ///< SYLVA_ITER_* of the index
 #ifdef __cplusplus
     SylvaHitWindow window;
@@ -179,7 +178,6 @@ SYLVA_FN void sylva_hits_init(SYLVA_OUT(SylvaHitIter) h, SYLVA_OUT(SylvaIndexIte
     h.steps_before = 0u;
     h.wanted = 0xFFFFFFFFu;
     h.work = 0u;
-    h.paused = 0u;
     sylva_hits_start_pass SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words));
 }
 
@@ -312,7 +310,7 @@ SYLVA_FN void sylva_composite_medium(SYLVA_INOUT(SylvaComposite) acc, vec4 mediu
 }
 
 /// Where a ray's compositing stands, for a device that resumes it in another dispatch (a device
-/// that cuts loops short: lavapipe ends an invocation's loops after 65,535 iterations). `rgba`:
+/// that cuts loops short: lavapipe ends a batch of invocations' loops after 65,535 iterations). `rgba`:
 /// premultiplied colour and opacity so far; `last_elem` / `last_t0`: the last hit composited
 /// (SYLVA_NO_NODE: none yet); `steps`: index nodes visited so far, over all dispatches;
 /// `status`: SYLVA_ITER_RUNNING while the ray stopped at its loop budget and is to be resumed,
@@ -361,7 +359,8 @@ SYLVA_FN void sylva_elements_composite_resume(SYLVA_BUF(words), uint word_count,
     acc.rgb = vec3(r.rgba.x, r.rgba.y, r.rgba.z);
     acc.alpha = r.rgba.w;
     SylvaHit hit;
-    while (acc.alpha < alpha_stop && h.paused == 0u &&
+    bool over_budget = false;
+    while (acc.alpha < alpha_stop && !over_budget &&
            sylva_hits_next SYLVA_ELEM_TARGS(h, it, SYLVA_PASS_BUF(words), SYLVA_PASS_BUF(elems), hit)) {
         SylvaElem x;
         sylva_elem_load(SYLVA_PASS_BUF(elems), hit.elem, x);
@@ -371,10 +370,10 @@ SYLVA_FN void sylva_elements_composite_resume(SYLVA_BUF(words), uint word_count,
         // The index's loop iterations are bounded by three times its steps (visits, pops, one
         // more a leaf handed out).
         uint steps = sylva_hits_steps SYLVA_ELEM_TARGS(h, it);
-        if (budget != 0xFFFFFFFFu && (h.work > budget || steps > (budget - h.work) / 3u)) h.paused = 1u;
+        over_budget = budget != 0xFFFFFFFFu && (h.work > budget || steps > (budget - h.work) / 3u);
     }
     // Paused: the index may have finished its pass (status DONE) with hits still in the window.
-    bool paused = h.paused != 0u && h.status != SYLVA_ITER_ERROR && acc.alpha < alpha_stop;
+    bool paused = over_budget && h.status != SYLVA_ITER_ERROR && acc.alpha < alpha_stop;
     // Still running below alpha_stop without pausing: a device cut the loop short (see
     // sylva_hits_next); the ray is marked, never drawn short.
     if (!paused && acc.alpha < alpha_stop && h.status == SYLVA_ITER_RUNNING) h.status = SYLVA_ITER_ERROR;
