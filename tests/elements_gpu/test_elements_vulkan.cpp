@@ -15,6 +15,7 @@
 #include <sylva/spirv/test_elements_capsule_octree.h>
 #include <sylva/vulkan/elements.hpp>
 
+#include "../device_tolerance.hpp"
 #include "scenes.hpp"
 
 using namespace sylva;
@@ -28,6 +29,38 @@ float max_channel_diff(vec4 a, vec4 b) {
 
 constexpr float kImageTolerance = 2e-6f;
 
+/// Hit sequences agree: the same elements in the same order, distances bit for bit on lavapipe
+/// and within devtol::kGpuHitRelative on a GPU.
+bool hits_agree(const vk::Context& ctx, const std::vector<shared::SylvaHit>& dev, const std::vector<shared::SylvaHit>& host) {
+    if (devtol::exact(ctx)) return same_hits(dev, host);
+    if (dev.size() != host.size()) return false;
+    for (std::size_t i = 0; i < dev.size(); ++i)
+        if (dev[i].elem != host[i].elem || !devtol::distance_agrees(ctx, host[i].t0, dev[i].t0) ||
+            !devtol::distance_agrees(ctx, host[i].t1, dev[i].t1))
+            return false;
+    return true;
+}
+
+/// Pixels whose steps differ (with `steps_may_grow`: fewer on the device; a ray resumed after a
+/// pause walks its index again) or whose colour differs by more than the device's tolerance for
+/// `tolerance`; reports the first.
+std::size_t differing_pixels(const vk::Context& ctx, const Frame& host, const Frame& dev, float tolerance,
+                             bool steps_may_grow = false) {
+    const float tol = devtol::colour_tolerance(ctx, tolerance);
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < host.rgba.size(); ++i) {
+        const bool steps_ok = steps_may_grow ? dev.steps[i] >= host.steps[i] : dev.steps[i] == host.steps[i];
+        const float d = max_channel_diff(dev.rgba[i], host.rgba[i]);
+        if (steps_ok && d <= tol) continue;
+        if (bad++ == 0)
+            UNSCOPED_INFO("pixel " << i << ": steps " << host.steps[i] << " / " << dev.steps[i] << ", colour difference " << d
+                                   << " (tolerance " << tol << ")");
+    }
+    devtol::note(ctx, std::to_string(bad) + " of " + std::to_string(host.rgba.size()) + " pixels differ (tolerance " +
+                          std::to_string(tol) + ")");
+    return bad;
+}
+
 template <class E, class I = BihIndex, class S>
 void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S& s, std::uint32_t seed) {
     std::vector<Ray> rs;
@@ -39,18 +72,26 @@ void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S&
     for (std::uint32_t max_hits : {1u, 200u}) {
         auto dev = kernel.hits(bih, recs, rs, ranges, max_hits);
         REQUIRE(dev.size() == rs.size());
-        std::size_t total = 0;
+        std::size_t total = 0, diverging = 0;
         for (std::size_t i = 0; i < rs.size(); ++i) {
             auto host = element_hits_cpu<E, I>(s.words, s.records, rs[i], ranges[i], max_hits);
             INFO("ray " << i << " max_hits " << max_hits);
-            CHECK(dev[i].status == host.status);
-            CHECK(dev[i].passes == host.passes);
-            CHECK(dev[i].more == host.more);
-            if (!host.more) CHECK(dev[i].steps == host.steps);  // stopping early stops both at the same node
-            CHECK(same_hits(dev[i].hits, host.hits));
+            if (devtol::exact(ctx)) {
+                CHECK(dev[i].status == host.status);
+                CHECK(dev[i].passes == host.passes);
+                CHECK(dev[i].more == host.more);
+                if (!host.more) CHECK(dev[i].steps == host.steps);  // stopping early stops both at the same node
+                CHECK(same_hits(dev[i].hits, host.hits));
+            } else {  // a GPU: a few rays may take another path (devtol)
+                diverging += dev[i].status != host.status || dev[i].passes != host.passes || dev[i].more != host.more ||
+                             (!host.more && dev[i].steps != host.steps) || !hits_agree(ctx, dev[i].hits, host.hits);
+            }
             if (max_hits == 200u) CHECK(same_hits(host.hits, brute_hits<E>(s.records, s.count(), rs[i], ranges[i])));
             total += host.hits.size();
         }
+        devtol::note(ctx, std::to_string(diverging) + " of " + std::to_string(rs.size()) + " rays diverge on " +
+                              ctx.device_name() + " (allowed " + std::to_string(devtol::allowed_diverging(ctx, rs.size())) + ")");
+        CHECK(diverging <= devtol::allowed_diverging(ctx, rs.size()));
         CHECK(total > (max_hits == 1u ? rs.size() / 3 : rs.size()));
     }
 }
@@ -67,11 +108,9 @@ void check_image(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S
     Frame host = render_elements_cpu<E>(s.words, s.records, cam, w, h, exec);
     Frame dev = kernel.render(bih, recs, cam, w, h);
     std::size_t lit = 0;
+    CHECK(differing_pixels(ctx, host, dev, kImageTolerance) <= devtol::allowed_diverging(ctx, host.rgba.size()));
     for (std::size_t i = 0; i < host.rgba.size(); ++i) {
-        INFO("pixel " << i);
-        CHECK(dev.steps[i] == host.steps[i]);
         float d = max_channel_diff(dev.rgba[i], host.rgba[i]);
-        CHECK(d <= kImageTolerance);
         max_diff = std::max(max_diff, d);
         exact += dev.rgba[i] == host.rgba[i] ? 1 : 0;
         lit += host.rgba[i].a > 0.1f ? 1 : 0;
@@ -136,14 +175,13 @@ TEST_CASE("vulkan: rays past the loop budget pause and later dispatches resume t
     Frame paused = kernel.render(bih, recs, cam, w, h);
     CHECK(kernel.resumes() > 2u);
     std::size_t resumed = 0;
+    CHECK(differing_pixels(ctx, host, whole, kImageTolerance) <= devtol::allowed_diverging(ctx, host.rgba.size()));
     for (std::size_t i = 0; i < host.rgba.size(); ++i) {
         INFO("pixel " << i);
-        REQUIRE(std::memcmp(&paused.rgba[i], &whole.rgba[i], sizeof(vec4)) == 0);
-        CHECK(max_channel_diff(paused.rgba[i], host.rgba[i]) <= kImageTolerance);
-        CHECK(whole.steps[i] == host.steps[i]);
+        REQUIRE(std::memcmp(&paused.rgba[i], &whole.rgba[i], sizeof(vec4)) == 0);  // the same device: bit for bit
         REQUIRE(paused.steps[i] != 0xFFFFFFFFu);
-        CHECK(paused.steps[i] >= host.steps[i]);
-        resumed += paused.steps[i] > host.steps[i];
+        CHECK(paused.steps[i] >= whole.steps[i]);
+        resumed += paused.steps[i] > whole.steps[i];
     }
     CHECK(resumed > host.rgba.size() / 10);
     kernel.set_loop_budget(0);
@@ -173,12 +211,11 @@ TEST_CASE("vulkan: rays past lavapipe's loop limiter are run again in later disp
     Frame host = render_elements_cpu<Sphere>(s.words, s.records, cam, w, h, exec, rc);
     Frame dev = kernel.render(bih, recs, cam, w, h, rc);
     std::size_t through = 0;
+    CHECK(differing_pixels(ctx, host, dev, kImageTolerance, true) <= devtol::allowed_diverging(ctx, host.rgba.size()));
     for (std::size_t i = 0; i < host.rgba.size(); ++i) {
         INFO("pixel " << i << ", host steps " << host.steps[i]);
         REQUIRE(host.steps[i] != 0xFFFFFFFFu);
         REQUIRE(dev.steps[i] != 0xFFFFFFFFu);
-        CHECK(max_channel_diff(dev.rgba[i], host.rgba[i]) <= kImageTolerance);
-        CHECK(dev.steps[i] >= host.steps[i]);
         through += host.rgba[i].a > 0.9f;  // 2,500 x 0.001 of opacity and more
     }
     CHECK(through > 4u);
@@ -186,14 +223,16 @@ TEST_CASE("vulkan: rays past lavapipe's loop limiter are run again in later disp
     if (ctx.is_cpu()) CHECK(resumes > 0u);
     kernel.set_loop_budget(0xFFFFFFFFu);
     Frame unlimited = kernel.render(bih, recs, cam, w, h, rc);
-    std::size_t marked = 0;
+    std::size_t marked = 0, wrong = 0;
+    const float tol = devtol::colour_tolerance(ctx, kImageTolerance);
     for (std::size_t i = 0; i < host.rgba.size(); ++i) {
         if (unlimited.steps[i] == 0xFFFFFFFFu) {
             ++marked;
             continue;
         }
-        CHECK(max_channel_diff(unlimited.rgba[i], host.rgba[i]) <= kImageTolerance);
+        wrong += max_channel_diff(unlimited.rgba[i], host.rgba[i]) > tol;
     }
+    CHECK(wrong <= (devtol::exact(ctx) ? 0 : devtol::allowed_diverging(ctx, host.rgba.size())));
     if (ctx.is_cpu()) CHECK(marked > 0u);  // the limiter is real; a real GPU has none
     WARN("cluster of 2,500: " << resumes << " dispatches after the first with the budget; without it, " << marked
                               << " pixels marked on " << ctx.device_name());
@@ -232,7 +271,7 @@ TEST_CASE("vulkan: 70,000 coincident capsules: the device equals the host or mar
     CHECK(host.more);
     // Equal to the host, or marked as an error with no hit: never a different first hit.
     if (dev[0].status == SYLVA_ITER_ERROR) CHECK(dev[0].hits.empty());
-    else CHECK(same_hits(dev[0].hits, host.hits));
+    else CHECK(hits_agree(ctx, dev[0].hits, host.hits));
     WARN("70,000 tests in one call on " << ctx.device_name() << ": status " << dev[0].status);
     CHECK(dev[1].hits.empty());  // the miss is unaffected
     CHECK(dev[1].status == SYLVA_ITER_DONE);

@@ -4,6 +4,8 @@
 // border (the shell cells) too.
 #include <catch2/catch.hpp>
 
+#include "../device_tolerance.hpp"
+
 #include <cmath>
 
 #include <sylva/core/executor.hpp>
@@ -16,6 +18,35 @@
 #include "quantised.hpp"
 
 using namespace sylva;
+
+namespace {
+/// A device iso frame against a reference: on lavapipe steps, cell and hit counts equal and
+/// colours within 1e-6; on a GPU at most devtol::allowed_diverging() pixels with other steps (a
+/// ray whose few-ulp difference crosses a cell face or the isovalue elsewhere), the other pixels
+/// within devtol's colour tolerance, and the hit counts apart by at most one hit a surface for
+/// each pixel allowed to diverge (the cell counts are not compared there: a diverging ray walks
+/// other cells).
+void check_iso_pair(const vk::Context& ctx, const Frame& ref, const Frame& dev, const IsoCounters& rn,
+                    const IsoCounters& dn, std::size_t surfaces) {
+    CHECK(rn.hits > 500);
+    if (devtol::exact(ctx)) {
+        CHECK(ref.steps == dev.steps);
+        CHECK(rn.cells == dn.cells);
+        CHECK(rn.hits == dn.hits);
+        float worst = 0.0f;
+        for (std::size_t i = 0; i < ref.rgba.size(); ++i)
+            for (int k = 0; k < 4; ++k) worst = std::max(worst, std::fabs(ref.rgba[i][k] - dev.rgba[i][k]));
+        CHECK(worst <= 1e-6f);
+        return;
+    }
+    const devtol::FrameDiff d = devtol::compare_frames_on(ref, dev);
+    devtol::note(ctx, devtol::describe(ctx, d) + "; hits " + std::to_string(rn.hits) + " / " + std::to_string(dn.hits) +
+                          ", cells " + std::to_string(rn.cells) + " / " + std::to_string(dn.cells));
+    CHECK(devtol::frames_agree(ctx, d, 1e-6f));
+    const auto hit_diff = rn.hits > dn.hits ? rn.hits - dn.hits : dn.hits - rn.hits;
+    CHECK(hit_diff <= devtol::allowed_diverging(ctx, d.pixels) * surfaces);
+}
+}  // namespace
 
 TEST_CASE("parity: isosurface images on the host and on Vulkan, tree and DDA", "[parity]") {
     vk::Context ctx = vk::Context::create();
@@ -45,14 +76,7 @@ TEST_CASE("parity: isosurface images on the host and on Vulkan, tree and DDA", "
             Frame host = render_iso_cpu(words, gw, p, pool, &hn);
             Frame gpu = dev.render(ctx, p, &dn);
             INFO("walker " << static_cast<int>(walker) << " border " << (p.border ? 1 : 0));
-            CHECK(host.steps == gpu.steps);
-            CHECK(hn.cells == dn.cells);
-            CHECK(hn.hits == dn.hits);
-            CHECK(hn.hits > 500);
-            float worst = 0.0f;
-            for (std::size_t i = 0; i < host.rgba.size(); ++i)
-                for (int k = 0; k < 4; ++k) worst = std::max(worst, std::fabs(host.rgba[i][k] - gpu.rgba[i][k]));
-            CHECK(worst <= 1e-6f);
+            check_iso_pair(ctx, host, gpu, hn, dn, c.isos.size());
         }
     }
 }
@@ -84,22 +108,17 @@ TEST_CASE("parity: isosurfaces over uint8 and uint16 grids read natively, host a
             Frame host = render_iso_cpu(words, native, p, pool, &hn);
             Frame gpu = dev.render(ctx, p, &dn);
             Frame gpu_f32 = dev_f32.render(ctx, p, &fn);
-            CHECK(host.steps == gpu.steps);
-            CHECK(hn.cells == dn.cells);
-            CHECK(hn.hits == dn.hits);
-            CHECK(hn.hits > 500);
+            check_iso_pair(ctx, host, gpu, hn, dn, p.isos.size());
             CHECK(dn.errors == 0);
-            // The device reads the same densities from either grid: identical pixels.
-            CHECK(gpu.steps == gpu_f32.steps);
-            CHECK(dn.hits == fn.hits);
-            float worst = 0.0f;
-            bool same = true;
-            for (std::size_t i = 0; i < host.rgba.size(); ++i) {
-                same = same && gpu.rgba[i] == gpu_f32.rgba[i];
-                for (int k = 0; k < 4; ++k) worst = std::max(worst, std::fabs(host.rgba[i][k] - gpu.rgba[i][k]));
+            // The device reads the same densities from either grid: identical pixels (on a GPU,
+            // whose division need not be exact, within devtol's limits).
+            if (devtol::exact(ctx)) {
+                CHECK(gpu.steps == gpu_f32.steps);
+                CHECK(dn.hits == fn.hits);
+                CHECK(gpu.rgba == gpu_f32.rgba);
+            } else {
+                check_iso_pair(ctx, gpu_f32, gpu, fn, dn, p.isos.size());
             }
-            CHECK(worst <= 1e-6f);
-            CHECK(same);
         }
     }
 }

@@ -5,6 +5,8 @@
 // device's own reference marcher.
 #include <catch2/catch.hpp>
 
+#include "../device_tolerance.hpp"
+
 #include <cmath>
 
 #include <sylva/octree/build.hpp>
@@ -20,6 +22,16 @@
 
 using namespace sylva;
 using namespace octree_test;
+
+namespace {
+/// Host and device frames agree: steps equal and colours within `tolerance` on lavapipe,
+/// devtol's limits on a GPU.
+bool frames_agree_here(const vk::Context& ctx, const Frame& host, const Frame& device, float tolerance) {
+    const devtol::FrameDiff d = devtol::compare_frames_on(host, device);
+    devtol::note(ctx, devtol::describe(ctx, d));
+    return devtol::frames_agree(ctx, d, tolerance);
+}
+}  // namespace
 
 
 TEST_CASE("vulkan: octree DVR on the device equals the host renderer", "[parity][dvr]") {
@@ -51,8 +63,7 @@ TEST_CASE("vulkan: octree DVR on the device equals the host renderer", "[parity]
                     Frame device = vk::render_octree_dvr_vulkan(ctx, dev, p);
                     INFO("border " << int(border.mode) << " shading " << shading << " shift " << shift << " max level "
                                    << max_level);
-                    CHECK(host.steps == device.steps);
-                    CHECK(max_diff(host, device) < 1e-5);
+                    CHECK(frames_agree_here(ctx, host, device, 1e-5f));
                     if (max_level == 0xFFFFFFFFu) CHECK(max_diff(marcher, device) < 1e-5);
                     for (const vec4& c : device.rgba) lit += c.w > 0.05f ? 1 : 0;
                 }
@@ -76,8 +87,7 @@ TEST_CASE("vulkan: octree DVR on the device equals the host renderer", "[parity]
         Frame device = vk::render_octree_dvr_vulkan(ctx, dev, p, {}, masks);
         Frame plain = vk::render_octree_dvr_vulkan(ctx, dev, p);
         INFO("masked, shading " << shading << " border " << int(border.mode));
-        CHECK(host.steps == device.steps);
-        CHECK(max_diff(host, device) < 1e-5);
+        CHECK(frames_agree_here(ctx, host, device, 1e-5f));
         CHECK(max_diff(plain, device) == 0.0);
         std::uint64_t masked_samples = 0, plain_samples = 0;
         for (std::size_t i = 0; i < device.steps.size(); ++i) {
@@ -114,8 +124,7 @@ TEST_CASE("vulkan: unorm8 and unorm16 bricks on the device equal the host", "[pa
                 Frame host = iso ? render_octree_iso_cpu(view, p, pool) : render_octree_dvr_cpu(view, p, pool);
                 Frame device = iso ? vk::render_octree_iso_vulkan(ctx, dev, p) : vk::render_octree_dvr_vulkan(ctx, dev, p);
                 INFO("format " << static_cast<int>(format) << " shift " << shift << " iso " << iso);
-                CHECK(host.steps == device.steps);
-                CHECK(max_diff(host, device) < 1e-5);
+                CHECK(frames_agree_here(ctx, host, device, 1e-5f));
                 for (const vec4& c : device.rgba) lit += c.w > 0.05f ? 1 : 0;
             }
         }
@@ -177,11 +186,11 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
             Frame host = iso ? render_octree_iso_cpu(view, p, pool) : render_octree_dvr_cpu(view, p, pool);
             Frame device = iso ? vk::render_octree_iso_vulkan(ctx, dev, p) : vk::render_octree_dvr_vulkan(ctx, dev, p);
             INFO("lod " << lod << " iso " << iso);
-            CHECK(host.steps == device.steps);
-            CHECK(max_diff(host, device) < 1e-5);
+            CHECK(frames_agree_here(ctx, host, device, 1e-5f));
             if (iso)
                 for (std::size_t i = 0; i < host.rgba.size(); ++i) {
-                    CHECK(host.rgba[i].w == device.rgba[i].w);  // the same hits
+                    CHECK((devtol::exact(ctx) || host.steps[i] != device.steps[i] ||
+                           host.rgba[i].w == device.rgba[i].w));  // the same hits (on a GPU where the walk agrees)
                     hits += host.rgba[i].w == 1.0f ? 1 : 0;
                 }
         }
@@ -194,8 +203,7 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
     dev.set_border(GridBorder::constant(1.0f));
     Frame host = render_octree_iso_cpu(OctreeView{.words = words, .bricks = t.bricks, .border = GridBorder::constant(1.0f)}, p, pool);
     Frame device = vk::render_octree_iso_vulkan(ctx, dev, p);
-    CHECK(host.steps == device.steps);
-    CHECK(max_diff(host, device) < 1e-5);
+    CHECK(frames_agree_here(ctx, host, device, 1e-5f));
     std::size_t face_hits = 0;
     for (const vec4& c : device.rgba) face_hits += c.w == 1.0f ? 1 : 0;
     CHECK(face_hits > 2 * hits / 5);  // more than a third of the three iso images' hits together
@@ -208,7 +216,7 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
 /// Lavapipe's loop limiter: some of the host's rays need over 65,535 samples; on llvmpipe
 /// some device pixels are marked (steps 0xFFFFFFFF), and every unmarked pixel is the whole ray.
 void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame& device) {
-    std::size_t past_limit = 0, marked = 0;
+    std::size_t past_limit = 0, marked = 0, differing = 0;
     for (std::size_t i = 0; i < host.steps.size(); ++i) {
         if (host.steps[i] > 65535u) ++past_limit;
         if (device.steps[i] == 0xFFFFFFFFu) {
@@ -216,9 +224,16 @@ void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame&
             continue;
         }
         INFO("pixel " << i);
-        CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
-        CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
+        if (devtol::exact(ctx)) {
+            CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
+            CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
+        } else {  // a GPU: within devtol's limits
+            differing += device.steps[i] != host.steps[i] ||
+                         std::abs(device.rgba[i].w - host.rgba[i].w) > devtol::colour_tolerance(ctx, 1e-4f);
+        }
     }
+    devtol::note(ctx, std::to_string(differing) + " of " + std::to_string(host.steps.size()) + " unmarked pixels differ");
+    CHECK(differing <= (devtol::exact(ctx) ? 0 : devtol::allowed_diverging(ctx, host.steps.size())));
     INFO(past_limit << " rays need over 65,535 samples; " << marked << " marked on the device");
     CHECK(past_limit > 0);
     if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);

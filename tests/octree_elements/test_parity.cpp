@@ -5,6 +5,8 @@
 // over corrupted encodings.
 #include <catch2/catch.hpp>
 
+#include "../device_tolerance.hpp"
+
 #include <array>
 #include <cstring>
 #include <random>
@@ -82,14 +84,18 @@ std::vector<std::uint32_t> device_records(vk::Context& ctx, const std::vector<st
     return out;
 }
 
-/// Leaf words must match exactly, colours within 1e-5; returns the count of rays that differ.
-std::size_t mismatches(const std::vector<std::uint32_t>& host, const std::vector<std::uint32_t>& dev) {
+/// Leaf words must match exactly (on a GPU floats within devtol::kGpuFloatUlps), colours within
+/// 1e-5 (on a GPU devtol::colour_tolerance); returns the count of rays that differ.
+std::size_t mismatches(const vk::Context& ctx, const std::vector<std::uint32_t>& host,
+                       const std::vector<std::uint32_t>& dev) {
+    const std::uint32_t ulps = devtol::exact(ctx) ? 0u : devtol::kGpuFloatUlps;
+    const float colour = devtol::colour_tolerance(ctx, 1e-5f);
     std::size_t bad = 0;
     for (std::size_t r = 0; r < host.size() / kStride; ++r) {
         const std::uint32_t *h = &host[r * kStride], *d = &dev[r * kStride];
         bool ok = h[0] == d[0] && h[1] == d[1] && h[2] == d[2] && h[7] == d[7];
-        for (std::size_t k = 9; k < 9 + 5 * std::min(h[0], kMaxLeaves); ++k) ok = ok && h[k] == d[k];
-        for (int c = 3; c < 7; ++c) ok = ok && std::abs(std::bit_cast<float>(h[c]) - std::bit_cast<float>(d[c])) <= 1e-5f;
+        for (std::size_t k = 9; k < 9 + 5 * std::min(h[0], kMaxLeaves); ++k) ok = ok && devtol::ulp_distance(h[k], d[k]) <= ulps;
+        for (int c = 3; c < 7; ++c) ok = ok && std::abs(std::bit_cast<float>(h[c]) - std::bit_cast<float>(d[c])) <= colour;
         if (!ok && bad < 1) {
             std::ostringstream os;
             for (std::size_t k = 0; k < 9 + 5 * std::min(std::max(h[0], d[0]), kMaxLeaves); ++k) os << " " << h[k] << "/" << d[k];
@@ -102,6 +108,14 @@ std::size_t mismatches(const std::vector<std::uint32_t>& host, const std::vector
         bad += !ok;
     }
     return bad;
+}
+
+/// Host and device records agree: word for word on lavapipe, within devtol's limits on a GPU.
+bool records_agree(const vk::Context& ctx, const std::vector<std::uint32_t>& host, const std::vector<std::uint32_t>& dev) {
+    const std::size_t bad = mismatches(ctx, host, dev), allowed = devtol::allowed_diverging(ctx, host.size() / kStride);
+    devtol::note(ctx, std::to_string(bad) + " of " + std::to_string(host.size() / kStride) + " rays differ on " +
+                          ctx.device_name() + " (allowed " + std::to_string(allowed) + ")");
+    return bad <= allowed;
 }
 
 /// Host vs device over one set: leaf words exactly, and (with particle records) colours within
@@ -122,7 +136,7 @@ void run_leaves(vk::Context& ctx, const std::vector<E>& es, const octree::Elemen
             for (std::size_t r = 0; r < rays.size(); ++r)
                 for (std::size_t k = 3; k < 9; ++k) host[r * kStride + k] = dev[r * kStride + k] = 0u;
         }
-        CHECK(mismatches(host, dev) == 0);
+        CHECK(records_agree(ctx, host, dev));
         for (std::size_t r = 0; r < rays.size(); ++r) {
             CHECK(host[r * kStride + 1] == SYLVA_ITER_DONE);
             leaves += host[r * kStride];
@@ -198,7 +212,7 @@ TEST_CASE("parity: corrupted element octrees stop the same way on the host and o
         Push p{std::uint32_t(rays.size()), kMaxLeaves, std::uint32_t(ps.size()), bits(0.99f)};
         auto host = host_records(w, records, rays, p);
         auto dev = device_records(ctx, w, records, rays, p);
-        CHECK(mismatches(host, dev) == 0);
+        CHECK(records_agree(ctx, host, dev));
         for (std::size_t r = 0; r < rays.size(); ++r) errors += host[r * kStride + 1] == SYLVA_ITER_ERROR;
     }
     CHECK(errors > 20);

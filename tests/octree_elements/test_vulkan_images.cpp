@@ -28,6 +28,7 @@
 #include <sylva/vulkan/elements.hpp>
 #include <sylva/vulkan/octree_particles.hpp>
 
+#include "../device_tolerance.hpp"
 #include "../missing_data.hpp"
 #include "common.hpp"
 
@@ -47,6 +48,13 @@ struct FrameParity {
     std::size_t lit = 0;     ///< host pixels with alpha > 0.05
     std::size_t bit_identical = 0;
     float worst = 0.0f;
+    float worst_same_steps = 0.0f;  ///< over the pixels whose steps agree
+    /// The largest difference this device answers for: every pixel on lavapipe; on a GPU the
+    /// pixels whose path did not flip (devtol), the others being counted in step_mismatches.
+    float worst_on(const vk::Context& ctx) const { return devtol::exact(ctx) ? worst : worst_same_steps; }
+    bool steps_ok(const vk::Context& ctx, std::size_t pixels) const {
+        return step_mismatches <= devtol::allowed_diverging(ctx, pixels);
+    }
 };
 
 /// With `device_may_stop`, a device error mark where the host rendered is counted in
@@ -66,7 +74,11 @@ FrameParity compare(const Frame& host, const Frame& dev, bool device_may_stop = 
         p.errors += host.steps[i] == 0xFFFFFFFFu;
         p.lit += host.rgba[i].a > 0.05f;
         p.bit_identical += host.rgba[i] == dev.rgba[i];
-        for (int c = 0; c < 4; ++c) p.worst = std::max(p.worst, std::abs(host.rgba[i][c] - dev.rgba[i][c]));
+        for (int c = 0; c < 4; ++c) {
+            const float d = std::abs(host.rgba[i][c] - dev.rgba[i][c]);
+            p.worst = std::max(p.worst, d);
+            if (host.steps[i] == dev.steps[i]) p.worst_same_steps = std::max(p.worst_same_steps, d);
+        }
     }
     return p;
 }
@@ -97,9 +109,12 @@ std::size_t check_images(vk::Context& ctx, const std::vector<E>& elems, const ch
         INFO(name << ", alpha_stop " << stop << ": " << p.step_mismatches << " step mismatches, worst channel "
                   << p.worst << ", " << p.bit_identical << " of " << host.rgba.size() << " pixels bit-identical, PSNR "
                   << psnr(host, dev) << " dB");
-        CHECK(p.step_mismatches == 0);
+        devtol::note(ctx, std::string(name) + ": " + std::to_string(p.step_mismatches) + " of " +
+                              std::to_string(host.rgba.size()) + " pixels with other steps, worst channel " +
+                              std::to_string(p.worst) + ", " + std::to_string(p.worst_same_steps) + " where the steps agree");
+        CHECK(p.steps_ok(ctx, host.rgba.size()));
         CHECK(p.errors == 0);
-        CHECK(p.worst <= 1e-5f);
+        CHECK(p.worst_on(ctx) <= devtol::colour_tolerance(ctx, 1e-5f));
         CHECK(p.lit > host.rgba.size() / 100);
         lit += p.lit;
     }
@@ -149,8 +164,8 @@ TEST_CASE("vulkan: corrupted element octrees stop with an error mark on the same
         Frame host = render_particles_octree_cpu(w, records, cam, 48, 36, pool);
         Frame dev = vk::render_particles_octree_vulkan(ctx, oct, cam, 48, 36);
         FrameParity p = compare(host, dev, true);
-        CHECK(p.step_mismatches == 0);
-        CHECK(p.worst <= 1e-5f);
+        CHECK(p.steps_ok(ctx, host.rgba.size()));
+        CHECK(p.worst_on(ctx) <= devtol::colour_tolerance(ctx, 1e-5f));
         device_only += p.device_only;
         return p.errors;
     };
@@ -228,9 +243,13 @@ TEST_CASE("vulkan: a leaf too long for lavapipe's loop limiter is marked an erro
     Frame dev = vk::render_particles_octree_vulkan(ctx, oct, cam, 48, 36, rc);
     FrameParity p = compare(host, dev, true);
     CHECK(p.errors == 0);  // the host draws everything
-    CHECK(p.step_mismatches == 0);
-    CHECK(p.worst <= 1e-5f);
-    CHECK(p.device_only > 0);  // the cluster's pixels: marked, not drawn short
+    CHECK(p.steps_ok(ctx, host.rgba.size()));
+    CHECK(p.worst_on(ctx) <= devtol::colour_tolerance(ctx, 1e-5f));
+    if (ctx.is_cpu()) {
+        CHECK(p.device_only > 0);  // the cluster's pixels: marked, not drawn short
+    } else {
+        CHECK(p.device_only == 0);  // a GPU has no loop limiter: every pixel drawn
+    }
     WARN("coincident cluster: " << p.device_only << " of " << host.rgba.size()
                                 << " pixels marked on the device only (loop limiter); the others equal the host");
 }
@@ -278,16 +297,26 @@ TEST_CASE("vulkan: the particle kernels take the caller's rays: orthographic and
         for (const Pair& q : pairs) {
             FrameParity p = compare(q.host, q.dev);
             INFO(q.name << (rc == &buffer ? ", ray buffer" : ", orthographic") << ": worst channel " << p.worst);
-            CHECK(p.step_mismatches == 0);
+            devtol::note(ctx, std::string(q.name) + ": " + std::to_string(p.step_mismatches) + " pixels with other steps, worst " +
+                                  std::to_string(p.worst) + ", " + std::to_string(p.worst_same_steps) + " where the steps agree");
+            CHECK(p.steps_ok(ctx, q.host.rgba.size()));
             CHECK(p.errors == 0);
-            CHECK(p.worst <= 1e-5f);
+            CHECK(p.worst_on(ctx) <= devtol::colour_tolerance(ctx, 1e-5f));
             lit += p.lit;
         }
     }
     CHECK(lit > 8 * std::size_t{kW} * kH / 10);  // each of the 8 images shows the spheres
-    // Device: the buffer of the orthographic rays gives the generator's image bit for bit.
-    CHECK(vk::render_particles_octree_vulkan(ctx, oct, cam, kW, kH, buffer).rgba ==
-          vk::render_particles_octree_vulkan(ctx, oct, cam, kW, kH, ortho).rgba);
+    // Device: the buffer of the orthographic rays gives the generator's image bit for bit (on a
+    // GPU the generator's rays are the host's within a few ulp: devtol's limits).
+    const Frame from_buffer = vk::render_particles_octree_vulkan(ctx, oct, cam, kW, kH, buffer);
+    const Frame generated = vk::render_particles_octree_vulkan(ctx, oct, cam, kW, kH, ortho);
+    if (ctx.is_cpu()) {
+        CHECK(from_buffer.rgba == generated.rgba);
+    } else {
+        FrameParity p = compare(from_buffer, generated);
+        CHECK(p.steps_ok(ctx, generated.rgba.size()));
+        CHECK(p.worst_on(ctx) <= devtol::kGpuColourAbs);
+    }
     ParticleRenderConfig short_buffer = buffer;
     short_buffer.rays.buffer.resize(6);
     CHECK_THROWS_WITH(vk::render_particles_octree_vulkan(ctx, oct, cam, kW, kH, short_buffer), Catch::Contains("ray buffer"));

