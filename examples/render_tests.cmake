@@ -479,6 +479,16 @@ foreach(backend cpu vulkan)
         JSON_EQUAL camera=ortho errors=0 JSON_MIN visible_pixels=100)
     endforeach()
   endforeach()
+  # --repeat for particles (the fastest of N frames, index and kernel made once): leaf order and
+  # exact order through the BIH.
+  foreach(order leaf exact)
+    sylva_render_test(particles_repeat_${order}_${backend} KEYS_ONLY
+      ARGS --count 2000 --order ${order} --backend ${backend} --repeat 3 --size 64x48 --quiet
+           -o ${_out}/repeat_p_${order}_${backend}.png --stats-json ${_out}/repeat_p_${order}_${backend}.json
+      FILES ${_out}/repeat_p_${order}_${backend}.png JSON ${_out}/repeat_p_${order}_${backend}.json
+      EXTRA_KEYS ms_min ms_median rays_per_s_median frame_ms
+      JSON_EQUAL repeat=3 errors=0 JSON_MIN visible_pixels=100 frame_ms.2=0 ms_median=0)
+  endforeach()
   sylva_render_test(camera_ortho_animation_${backend} KEYS_ONLY
     ARGS --count 2000 --animate 3 --backend ${backend} --camera ortho --size 64x48 --quiet
          -o ${_out}/ortho_anim_${backend}.png --stats-json ${_out}/ortho_anim_${backend}.json

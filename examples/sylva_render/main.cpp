@@ -66,13 +66,13 @@ Frame render(const Options& o, std::span<const std::uint32_t> words, std::span<c
     ParticleRenderConfig rc = particle_config(o);
     if (o.backend == "cpu") {
         device = "host, " + std::to_string(pool.concurrency()) + " threads";
-        return render_particles_cpu(words, records, cam, o.width, o.height, pool, rc);
+        return best_of(o.repeat, [&] { return render_particles_cpu(words, records, cam, o.width, o.height, pool, rc); });
     }
 #ifdef SYLVA_RENDER_VULKAN
     vk::Context ctx = vk::Context::create();
     device = ctx.describe();
     vk::DeviceBih bih(ctx, words);
-    return vk::render_particles_vulkan(ctx, bih, records, cam, o.width, o.height, rc);
+    return best_of(o.repeat, [&] { return vk::render_particles_vulkan(ctx, bih, records, cam, o.width, o.height, rc); });
 #else
     throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
 #endif

@@ -347,7 +347,7 @@ void add_volumes(CLI::App& app, Options& o) {
     g.flag("--shading", o.shading, "Lambert shading from the gradient (always with --mode iso)");
     g.number("--repeat", o.repeat, 1, 1000, "N",
              "render N frames and report the fastest and the median (warm caches, pipelines compiled; "
-             "JSON ms_min, ms_median, frame_ms)");
+             "JSON ms_min, ms_median, frame_ms); volumes, and particles but for --order leaf with --index kd|octree");
 }
 
 /// The options of one volume index each: kd-trees, the implicit kd-tree, the octree, out of core.

@@ -76,7 +76,7 @@ struct Options {
     std::string kd_classify = "alpha";  ///< --kd-classify alpha|threshold: occupancy from the TF's alpha or --threshold
     std::string boxes;               ///< --boxes FILE: the rendering with the kd-tree's leaf boxes drawn over it
     std::vector<std::string> tf_sequence;  ///< --tf-sequence F1,F2,...: replay TFs, rebuild the kd-tree for each
-    std::uint32_t repeat = 1;        ///< --repeat N: render a volume N times, report the fastest frame
+    std::uint32_t repeat = 1;        ///< --repeat N: render N frames (volumes, most particle runs), report the fastest
     // Out of core (--index octree; issue 13, ooc_scene.hpp): progressive frames through the
     // host cache, the loader and the device pool; a brick store (--volume DIR made by
     // sylva-store build) always renders this way.
