@@ -17,6 +17,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <sylva/render/image.hpp>
+
 namespace sylva_render {
 
 namespace {
@@ -411,9 +413,28 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
 
 bool given(const CLI::App& app, const char* opt) { return app.count(opt) > 0; }
 
+/// Built without OpenImageIO (SYLVA_HAVE_OIIO=0) image.hpp writes .ppm and .pfm only: other
+/// names are refused here, before any work, not after the render.
+void check_image_names(const Options& o) {
+#if defined(SYLVA_HAVE_OIIO) && !SYLVA_HAVE_OIIO
+    auto writable = [](const std::string& name) {  // any case, as image.hpp
+        return sylva::detail::ends_with(name, ".ppm") || sylva::detail::ends_with(name, ".pfm");
+    };
+    for (const std::string* name : {&o.output, &o.heatmap, &o.boxes})
+        if (!name->empty() && !writable(*name))
+            throw std::invalid_argument("cannot write " + *name + ": this sylva-render was built without OpenImageIO "
+                                        "(libopenimageio-dev), which writes PNG and EXR; name a .ppm or .pfm file");
+    if (!o.frames_out.empty())
+        throw std::invalid_argument("--frames-out writes PNG frames: this sylva-render was built without OpenImageIO");
+#else
+    (void)o;
+#endif
+}
+
 /// Which input and index the options ask for, and the particle options with them.
 void check_input(const Options& o, const CLI::App& app) {
     if (o.output.empty()) throw std::invalid_argument("-o OUT.png is required");
+    check_image_names(o);
     if (!o.particles.empty() && !o.volume.empty()) throw std::invalid_argument("--particles and --volume exclude each other");
     if (!o.particles.empty() && !o.mode.empty()) throw std::invalid_argument("--mode applies to volumes, not --particles");
     if (o.index == "none" && !o.volume_input())
