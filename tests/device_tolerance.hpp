@@ -16,11 +16,15 @@
 //     few ulps decide a comparison: a ray grazing a split plane or a brick face, a hit at an
 //     interval end, early termination at alpha_stop; at most kGpuDivergingFraction of them;
 //   - colours that went through exp / exp2 / log2 and divisions over hundreds of samples may
-//     differ by kGpuColourAbs, and pixels whose path flipped (the records above) by more.
+//     differ by kGpuColourAbs, and pixels whose path flipped (the records above) by more;
+//   - a pixel's step count may differ by step_slack() (a ray placed on a cell face by a distance
+//     an ulp off walks one cell more or fewer) without counting as another path when its colour
+//     agrees.
 // The limits come from one run of the exact comparisons on an NVIDIA H200 (driver 580.159.04,
 // Vulkan 1.4.312: distances 1-2 ulp off, steps off by 1-4 on a few pixels, colours up to 5.7e-4
-// off where the path agreed; README, "A real GPU: NVIDIA H200"). They have not yet been seen to
-// hold on a GPU: the tests labelled gpu ran with them on none so far.
+// off where the path agreed), and a second run of the tests with them (2026-12-04) passed all
+// 16 executables once the step slack and the capsule test's backward error were added (README,
+// "A real GPU: NVIDIA H200").
 #ifndef SYLVA_TESTS_DEVICE_TOLERANCE_HPP
 #define SYLVA_TESTS_DEVICE_TOLERANCE_HPP
 
@@ -32,6 +36,7 @@
 #include <cstdlib>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -128,12 +133,20 @@ inline bool acceptable(const vk::Context& ctx, const RecordDiff& d) {
     return d.diverging <= allowed_diverging(ctx, d.records);
 }
 
+/// Steps a pixel may differ by on a GPU without counting as another path: a ray whose entry or
+/// exit moved by an ulp across a cell or brick face visits one cell or sample more or fewer per
+/// walk phase (the H200: the isosurface shell walk, ~6 % of the pixels off by a step with equal
+/// hits and colours), and a long ray meets such faces again and again.
+inline std::uint32_t step_slack(std::uint32_t host_steps) { return 2u + host_steps / 1000u; }
+
 /// A device frame against the host's (any type with `rgba`, a vector of vec4, and `steps`).
 struct FrameDiff {
     std::size_t pixels = 0;
     std::size_t step_diff = 0;        ///< pixels whose steps differ
+    std::size_t step_far = 0;         ///< ... by more than step_slack() (or a size mismatch)
     float max_abs = 0.0f;             ///< largest channel difference over all pixels
     float max_abs_same_steps = 0.0f;  ///< over the pixels whose steps agree
+    std::vector<float> near_colour;   ///< the largest channel difference of each pixel whose steps differ within the slack
 };
 
 template <class F>
@@ -141,29 +154,45 @@ FrameDiff compare_frames_on(const F& host, const F& dev) {
     FrameDiff d;
     d.pixels = std::min(host.rgba.size(), dev.rgba.size());
     d.step_diff = host.rgba.size() != dev.rgba.size() || host.steps.size() != dev.steps.size() ? 1 : 0;
+    d.step_far = d.step_diff;
     for (std::size_t i = 0; i < d.pixels; ++i) {
-        const bool same_steps = i < host.steps.size() && i < dev.steps.size() && host.steps[i] == dev.steps[i];
+        const bool have_steps = i < host.steps.size() && i < dev.steps.size();
+        const bool same_steps = have_steps && host.steps[i] == dev.steps[i];
+        const bool near_steps = have_steps && !same_steps && host.steps[i] != 0xFFFFFFFFu && dev.steps[i] != 0xFFFFFFFFu &&
+                                std::max(host.steps[i], dev.steps[i]) - std::min(host.steps[i], dev.steps[i]) <=
+                                    step_slack(host.steps[i]);
         d.step_diff += same_steps ? 0 : 1;
-        for (int c = 0; c < 4; ++c) {
-            const float x = std::abs(host.rgba[i][c] - dev.rgba[i][c]);
-            d.max_abs = std::max(d.max_abs, x);
-            if (same_steps) d.max_abs_same_steps = std::max(d.max_abs_same_steps, x);
-        }
+        d.step_far += (same_steps || near_steps) ? 0 : 1;
+        float worst = 0.0f;
+        for (int c = 0; c < 4; ++c) worst = std::max(worst, std::abs(host.rgba[i][c] - dev.rgba[i][c]));
+        d.max_abs = std::max(d.max_abs, worst);
+        if (same_steps) d.max_abs_same_steps = std::max(d.max_abs_same_steps, worst);
+        if (near_steps) d.near_colour.push_back(worst);
     }
     return d;
 }
 
+/// Pixels on another path on a GPU: steps apart by more than step_slack(), or apart within it
+/// and colours beyond `colour_tol`.
+inline std::size_t diverging_pixels(const FrameDiff& d, float colour_tol) {
+    std::size_t n = d.step_far;
+    for (float c : d.near_colour) n += c > colour_tol ? 1 : 0;
+    return n;
+}
+
 /// Whether a frame difference is within this device's limits: on lavapipe steps equal and
-/// colours within the test's `exact_tolerance`; on a GPU at most allowed_diverging() pixels with
-/// other steps, the others' colours within colour_tolerance().
+/// colours within the test's `exact_tolerance`; on a GPU at most allowed_diverging() pixels on
+/// another path (diverging_pixels), the pixels with equal steps within colour_tolerance().
 inline bool frames_agree(const vk::Context& ctx, const FrameDiff& d, float exact_tolerance) {
     if (exact(ctx)) return d.step_diff == 0 && d.max_abs <= exact_tolerance;
-    return d.step_diff <= allowed_diverging(ctx, d.pixels) && d.max_abs_same_steps <= colour_tolerance(ctx, exact_tolerance);
+    const float tol = colour_tolerance(ctx, exact_tolerance);
+    return diverging_pixels(d, tol) <= allowed_diverging(ctx, d.pixels) && d.max_abs_same_steps <= tol;
 }
 
 inline std::string describe(const vk::Context& ctx, const FrameDiff& d) {
     return std::to_string(d.pixels) + " pixels on " + ctx.device_name() + ": " + std::to_string(d.step_diff) +
-           " with other steps (allowed " + std::to_string(allowed_diverging(ctx, d.pixels)) + "), largest difference " +
+           " with other steps, " + std::to_string(d.step_far) + " of them beyond the step slack (allowed " +
+           std::to_string(allowed_diverging(ctx, d.pixels)) + " on another path), largest difference " +
            std::to_string(d.max_abs) + ", " + std::to_string(d.max_abs_same_steps) + " where the steps agree";
 }
 

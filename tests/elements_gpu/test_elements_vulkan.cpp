@@ -1,12 +1,16 @@
 // elements_gpu.vulkan.*: the generic element kernel on a Vulkan device (lavapipe in CI) against
 // the host's shared kernel: hit sequences (record, t0 bits, t1 bits), statuses and steps equal
 // word for word; images within 2e-6 per channel (the element media composite 1 - exp(-tau),
-// and exp is not exact in Vulkan: docs/DESIGN.md, parity rules), steps equal.
+// and exp is not exact in Vulkan: docs/DESIGN.md, parity rules), steps equal. On a GPU within
+// tests/device_tolerance.hpp's limits, capsule hit lists by backward error
+// (capsule_hits_acceptable).
 #include <catch2/catch.hpp>
 
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
+#include <optional>
 
 #include <sylva/spirv/elements_rbf.h>
 #include <sylva/spirv/elements_sphere.h>
@@ -41,6 +45,68 @@ bool hits_agree(const vk::Context& ctx, const std::vector<shared::SylvaHit>& dev
     return true;
 }
 
+/// Units of 2^-23 by which a GPU's capsule hit may move the squared radius (see
+/// capsule_hits_acceptable): the discriminant qb^2 - qa qc of a ray at distance D from the
+/// element rounds to about 2^-23 D^2 |d|^2 per operation (and a GPU may fuse the products), the
+/// same as changing r^2 by 2^-23 D^2; 16 operations' worth.
+constexpr float kCapsuleRadiusSqUlps = 16.0f;
+
+/// The capsule `x` with its squared radius changed by `dr2` (nullopt when that leaves none).
+std::optional<demo::Capsule> capsule_with_radius_sq(demo::Capsule x, float dr2) {
+    const float r2 = x.radius * x.radius + dr2;
+    if (!(r2 > 0.0f)) return std::nullopt;
+    x.radius = std::sqrt(r2);
+    return x;
+}
+
+/// Backward error for capsule hits on a GPU: a thin capsule's interval is ill-conditioned (the
+/// discriminant cancels: a ray grazing a capsule of radius 0.005 at distance 1.5 moves its entry
+/// by ~1e-4 for one ulp of the discriminant), so the device's hits are accepted when they are
+/// the exact hits of capsules whose squared radius is within kCapsuleRadiusSqUlps 2^-23 D^2 of
+/// the stored one (D: the ray origin's distance to the capsule): each device interval lies
+/// between the grown and the shrunk capsule's, a hit the device misses has a shrunk capsule that
+/// the ray misses, a hit only the device has a grown one it hits; the device's order is by its
+/// own entry distances. Hits are compared by element; `hits` holds at most the ray's whole list.
+bool capsule_hits_acceptable(std::span<const std::uint32_t> records, const Ray& ray, Interval range,
+                             const std::vector<shared::SylvaHit>& dev, const std::vector<shared::SylvaHit>& host) {
+    shared::Words w{records.data(), records.size()};
+    for (std::size_t i = 1; i < dev.size(); ++i)
+        if (dev[i].t0 < dev[i - 1].t0) return false;
+    std::map<std::uint32_t, std::pair<const shared::SylvaHit*, const shared::SylvaHit*>> by_elem;  // host, device
+    for (const auto& h : host) by_elem[h.elem].first = &h;
+    for (const auto& h : dev) by_elem[h.elem].second = &h;
+    const float eps = std::ldexp(1.0f, -23);
+    for (const auto& [elem, pair] : by_elem) {
+        demo::Capsule x{};
+        sylva_elem_load(w, elem, x);
+        const float dist = std::max(glm::length(ray.origin - x.a), glm::length(ray.origin - x.b)) + x.radius;
+        const float dr2 = kCapsuleRadiusSqUlps * eps * dist * dist;
+        const auto grown = intersect_element(*capsule_with_radius_sq(x, dr2), ray, range);
+        const auto shrunk_x = capsule_with_radius_sq(x, -dr2);
+        const auto shrunk = shrunk_x ? intersect_element(*shrunk_x, ray, range) : std::nullopt;
+        const shared::SylvaHit* d = pair.second;
+        if (d == nullptr) {  // only the host hits it: a grazing hit
+            if (shrunk) return false;
+            continue;
+        }
+        if (!grown) return false;  // only possible when the host missed it too: a hit from nowhere
+        const auto slack = [](float t) { return devtol::kGpuHitRelative * std::max(1.0f, std::abs(t)); };
+        if (d->t0 < grown->t0 - slack(grown->t0) || d->t1 > grown->t1 + slack(grown->t1)) return false;
+        if (shrunk && (d->t0 > shrunk->t0 + slack(shrunk->t0) || d->t1 < shrunk->t1 - slack(shrunk->t1))) return false;
+    }
+    return true;
+}
+
+/// Why a ray's device result differs from the host's on a GPU (the note lists the counts).
+struct Divergence {
+    std::size_t status = 0, passes = 0, more = 0, steps = 0, hits = 0, hits_within_backward_error = 0;
+    [[nodiscard]] std::string describe() const {
+        return "status " + std::to_string(status) + ", passes " + std::to_string(passes) + ", more " + std::to_string(more) +
+               ", steps " + std::to_string(steps) + ", hits " + std::to_string(hits) + " (and " +
+               std::to_string(hits_within_backward_error) + " rays whose hits differ only within the backward error)";
+    }
+};
+
 /// Pixels whose steps differ (with `steps_may_grow`: fewer on the device; a ray resumed after a
 /// pause walks its index again) or whose colour differs by more than the device's tolerance for
 /// `tolerance`; reports the first.
@@ -73,6 +139,7 @@ void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S&
         auto dev = kernel.hits(bih, recs, rs, ranges, max_hits);
         REQUIRE(dev.size() == rs.size());
         std::size_t total = 0, diverging = 0;
+        Divergence why;
         for (std::size_t i = 0; i < rs.size(); ++i) {
             auto host = element_hits_cpu<E, I>(s.words, s.records, rs[i], ranges[i], max_hits);
             INFO("ray " << i << " max_hits " << max_hits);
@@ -83,14 +150,28 @@ void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S&
                 if (!host.more) CHECK(dev[i].steps == host.steps);  // stopping early stops both at the same node
                 CHECK(same_hits(dev[i].hits, host.hits));
             } else {  // a GPU: a few rays may take another path (devtol)
+                bool hits_ok = hits_agree(ctx, dev[i].hits, host.hits);
+                if constexpr (std::is_same_v<E, demo::Capsule>) {
+                    if (!hits_ok && !host.more && !dev[i].more &&
+                        capsule_hits_acceptable(s.records, rs[i], ranges[i], dev[i].hits, host.hits)) {
+                        hits_ok = true;
+                        ++why.hits_within_backward_error;
+                    }
+                }
+                why.status += dev[i].status != host.status;
+                why.passes += dev[i].passes != host.passes;
+                why.more += dev[i].more != host.more;
+                why.steps += !host.more && dev[i].steps != host.steps;
+                why.hits += !hits_ok;
                 diverging += dev[i].status != host.status || dev[i].passes != host.passes || dev[i].more != host.more ||
-                             (!host.more && dev[i].steps != host.steps) || !hits_agree(ctx, dev[i].hits, host.hits);
+                             (!host.more && dev[i].steps != host.steps) || !hits_ok;
             }
             if (max_hits == 200u) CHECK(same_hits(host.hits, brute_hits<E>(s.records, s.count(), rs[i], ranges[i])));
             total += host.hits.size();
         }
         devtol::note(ctx, std::to_string(diverging) + " of " + std::to_string(rs.size()) + " rays diverge on " +
-                              ctx.device_name() + " (allowed " + std::to_string(devtol::allowed_diverging(ctx, rs.size())) + ")");
+                              ctx.device_name() + " (allowed " + std::to_string(devtol::allowed_diverging(ctx, rs.size())) +
+                              ", max_hits " + std::to_string(max_hits) + "): " + why.describe());
         CHECK(diverging <= devtol::allowed_diverging(ctx, rs.size()));
         CHECK(total > (max_hits == 1u ? rs.size() / 3 : rs.size()));
     }
@@ -125,6 +206,65 @@ TEST_CASE("vulkan: capsule hit sequences equal the host's word for word", "[elem
     check_hits<demo::Capsule>(ctx, spirv::test_elements_capsule, Scene<demo::Capsule>(capsules(3000, 61)), 62);
     check_hits<demo::Capsule>(ctx, spirv::test_elements_capsule,
                               Scene<demo::Capsule>(capsules(3000, 63, 0.8f, 0.02f), bih::Config::for_queries()), 64);
+}
+
+TEST_CASE("the capsule backward error accepts hits of slightly changed capsules and nothing else", "[elements]") {
+    // On the host (no device): the GPU branch's acceptance of capsule hit lists, against hits
+    // moved within and beyond the grown and shrunk capsules' intervals.
+    Scene<demo::Capsule> s(capsules(3000, 63, 0.8f, 0.02f), bih::Config::for_queries());
+    std::vector<Ray> rs;
+    std::vector<Interval> ranges;
+    rays(200, 91, rs, ranges);
+    shared::Words w{s.records.data(), s.records.size()};
+    std::size_t moved_within = 0, checked = 0, late_checked = 0;
+    for (std::size_t i = 0; i < rs.size(); ++i) {
+        auto host = element_hits_cpu<demo::Capsule>(s.words, s.records, rs[i], ranges[i], 200).hits;
+        if (host.size() < 2) continue;
+        INFO("ray " << i);
+        ++checked;
+        CHECK(capsule_hits_acceptable(s.records, rs[i], ranges[i], host, host));
+        // Entry and exit moved to those of the capsule grown by half the allowed squared radius.
+        auto grown = host;
+        bool moved = false;
+        for (auto& h : grown) {
+            demo::Capsule x{};
+            sylva_elem_load(w, h.elem, x);
+            const float dist = std::max(glm::length(rs[i].origin - x.a), glm::length(rs[i].origin - x.b)) + x.radius;
+            const auto g = intersect_element(*capsule_with_radius_sq(x, 0.5f * kCapsuleRadiusSqUlps * std::ldexp(1.0f, -23) * dist * dist),
+                                             rs[i], ranges[i]);
+            REQUIRE(g);
+            moved = moved || g->t0 != h.t0 || g->t1 != h.t1;
+            h.t0 = g->t0;
+            h.t1 = g->t1;
+        }
+        std::stable_sort(grown.begin(), grown.end(), [](const auto& a, const auto& b) { return a.t0 < b.t0; });
+        CHECK(capsule_hits_acceptable(s.records, rs[i], ranges[i], grown, host));
+        moved_within += moved;
+        {  // the first hit's entry past the shrunk capsule's by 10x the distance slack
+            demo::Capsule x{};
+            sylva_elem_load(w, host[0].elem, x);
+            const float dist = std::max(glm::length(rs[i].origin - x.a), glm::length(rs[i].origin - x.b)) + x.radius;
+            const auto shrunk_x = capsule_with_radius_sq(x, -kCapsuleRadiusSqUlps * std::ldexp(1.0f, -23) * dist * dist);
+            const auto shrunk = shrunk_x ? intersect_element(*shrunk_x, rs[i], ranges[i]) : std::nullopt;
+            const float late_t0 = shrunk ? shrunk->t0 + 10.0f * devtol::kGpuHitRelative * std::max(1.0f, shrunk->t0) : 0.0f;
+            if (shrunk && late_t0 < host[0].t1) {
+                auto late = host;
+                late[0].t0 = late_t0;
+                std::stable_sort(late.begin(), late.end(), [](const auto& a, const auto& b) { return a.t0 < b.t0; });
+                CHECK_FALSE(capsule_hits_acceptable(s.records, rs[i], ranges[i], late, host));
+                ++late_checked;
+            }
+        }
+        auto missing = host;
+        missing.erase(missing.begin() + 1);  // not a grazing hit (the shrunk capsule is hit too)
+        if (host[1].t1 - host[1].t0 > 1e-3f) CHECK_FALSE(capsule_hits_acceptable(s.records, rs[i], ranges[i], missing, host));
+        auto swapped = host;
+        std::swap(swapped[0], swapped[1]);
+        if (host[0].t0 < host[1].t0) CHECK_FALSE(capsule_hits_acceptable(s.records, rs[i], ranges[i], swapped, host));
+    }
+    CHECK(checked > 50);
+    CHECK(moved_within > checked / 2);  // the allowance is more than rounding
+    CHECK(late_checked > checked / 2);
 }
 
 TEST_CASE("vulkan: capsules over the kd-tree and the octree: hit sequences equal the host's", "[elements][vulkan]") {

@@ -217,6 +217,7 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
 /// some device pixels are marked (steps 0xFFFFFFFF), and every unmarked pixel is the whole ray.
 void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame& device) {
     std::size_t past_limit = 0, marked = 0, differing = 0;
+    std::uint32_t worst_apart = 0;
     for (std::size_t i = 0; i < host.steps.size(); ++i) {
         if (host.steps[i] > 65535u) ++past_limit;
         if (device.steps[i] == 0xFFFFFFFFu) {
@@ -227,16 +228,20 @@ void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame&
         if (devtol::exact(ctx)) {
             CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
             CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
-        } else {  // a GPU: within devtol's limits
-            differing += device.steps[i] != host.steps[i] ||
+        } else {  // a GPU: within devtol's limits (a 120,000-sample ray meets many brick faces)
+            const std::uint32_t apart = std::max(device.steps[i], host.steps[i]) - std::min(device.steps[i], host.steps[i]);
+            differing += apart > devtol::step_slack(host.steps[i]) ||
                          std::abs(device.rgba[i].w - host.rgba[i].w) > devtol::colour_tolerance(ctx, 1e-4f);
+            worst_apart = std::max(worst_apart, apart);
         }
     }
-    devtol::note(ctx, std::to_string(differing) + " of " + std::to_string(host.steps.size()) + " unmarked pixels differ");
+    devtol::note(ctx, std::to_string(differing) + " of " + std::to_string(host.steps.size()) + " unmarked pixels differ; steps at most " +
+                          std::to_string(worst_apart) + " apart, " + std::to_string(marked) + " marked");
     CHECK(differing <= (devtol::exact(ctx) ? 0 : devtol::allowed_diverging(ctx, host.steps.size())));
     INFO(past_limit << " rays need over 65,535 samples; " << marked << " marked on the device");
     CHECK(past_limit > 0);
     if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);
+    if (!ctx.is_cpu()) CHECK(marked == 0);  // a GPU has no loop limiter: every ray whole (the H200: none marked)
 }
 
 TEST_CASE("vulkan: a DVR ray past lavapipe's loop limiter is marked an error, never drawn short", "[parity][dvr][errors]") {

@@ -133,15 +133,22 @@ TEST_CASE("GPU particle images match the host within 1e-5 and visit the same nod
             total_alpha += host.rgba[i].a;
         }
         // exp() may differ by a few ulp between the host's libm and lavapipe; everything else
-        // is bit-exact, so the step counts (the traversal) must agree exactly.
+        // is bit-exact, so the step counts (the traversal) must agree exactly. On a GPU
+        // (devtol) the colours within its tolerance, a few pixels on another path.
         std::size_t step_diff = 0, first_diff = host.steps.size();
         for (std::size_t i = 0; i < host.steps.size(); ++i)
             if (host.steps[i] != gpu.steps[i] && step_diff++ == 0) first_diff = i;
         INFO("pixels with different steps: " << step_diff << ", first " << first_diff << " host "
              << (first_diff < host.steps.size() ? host.steps[first_diff] : 0) << " gpu "
              << (first_diff < host.steps.size() ? gpu.steps[first_diff] : 0) << "; worst colour difference " << worst);
-        CHECK(worst <= 1e-5f);
-        CHECK(host.steps == gpu.steps);
+        if (devtol::exact(ctx)) {
+            CHECK(worst <= 1e-5f);
+            CHECK(host.steps == gpu.steps);
+        } else {
+            const devtol::FrameDiff fd = devtol::compare_frames_on(host, gpu);
+            devtol::note(ctx, devtol::describe(ctx, fd));
+            CHECK(devtol::frames_agree(ctx, fd, 1e-5f));
+        }
         CHECK(total_alpha > 100.0f);  // the galaxy is in view
     }
 }
