@@ -53,7 +53,7 @@ struct Options {
     std::string data = SYLVA_OCTREE_BENCH_DATA, json, only = "all";
     std::uint32_t width = 512, height = 512, brick = 32, cut_nodes = 1u << 20;
     std::size_t runs = 3, threads = 0;
-    float lod_pixels = 1.0f, iso = 0.3f;
+    float lod_pixels = 1.0f, iso = 0.3f, max_tf_error = octree::CutConfig{}.max_tf_error;
     bool shading = false;
     std::string border = "zero", brick_format = "float32";
 };
@@ -86,6 +86,12 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
         ->type_name("P")
         ->capture_default_str()
         ->check(bench_cli::number_in(1e-3, 1e4));
+    app->add_option("--max-tf-error", o.max_tf_error,
+                    "the TF-aware cut (octree-lod-tf*) refines nodes under the pixel size while their classified "
+                    "samples may differ from their voxels' by more than this (octree/lod_error.hpp)")
+        ->type_name("E")
+        ->capture_default_str()
+        ->check(bench_cli::number_in(0.0, 1.0));
     app->add_option("--cut-nodes", o.cut_nodes, "node budget of the view's cut")
         ->type_name("N")
         ->capture_default_str()
@@ -199,6 +205,14 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     octree::apply_cut(lod, cut);
     octree::Cut cut_iso = select_octree_cut(full, p, {o.lod_pixels, o.cut_nodes}, true, border);
     octree::apply_cut(lod_iso, cut_iso);
+    // The TF-aware cut (octree/lod_error.hpp): the deviation tables once per octree.
+    auto t_dev = std::chrono::steady_clock::now();
+    octree::LodDeviation deviation = octree::lod_deviation(full, t.bricks, pool);
+    double deviation_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_dev).count();
+    octree::CutConfig tf_cfg{o.lod_pixels, o.cut_nodes, o.max_tf_error};
+    octree::Cut cut_tf = select_octree_cut(full, p, tf_cfg, false, border, &deviation);
+    std::vector<std::uint32_t> lod_tf = full;
+    octree::apply_cut(lod_tf, cut_tf);
     GridWords gw = GridWords::from(g, border);
     // Octant masks (octree/octants.hpp): the ranges once per octree, the masks once per TF.
     auto t_oct = std::chrono::steady_clock::now();
@@ -207,8 +221,8 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     std::vector<std::uint32_t> octmask = octree::octant_masks(
         oct_ranges, tf_opacity_prefix(p.tf), border.mode == BorderMode::Constant ? std::optional<float>(border.value) : std::nullopt);
     const char* names[] = {"marcher", "octree-full", "octree-lod", "iso-full", "iso-lod", "octree-full-octants",
-                           "octree-lod-octants"};
-    constexpr std::size_t kImpls = 7;
+                           "octree-lod-octants", "octree-lod-tf", "octree-lod-tf-octants"};
+    constexpr std::size_t kImpls = 9;
     auto render = [&](std::size_t i, const VolumeRenderParams& q) {
         switch (i) {
             case 0: return render_dvr_cpu(gw, q, pool);
@@ -217,6 +231,8 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
             case 3: return render_octree_iso_cpu(OctreeView{full, t.bricks, 0xFFFFFFFFu, {}, {}, border}, q, pool);
             case 4: return render_octree_iso_cpu(OctreeView{lod_iso, t.bricks, 0xFFFFFFFFu, {}, {}, border}, q, pool);
             case 5: return render_octree_dvr_cpu(OctreeView{full, t.bricks, 0xFFFFFFFFu, {}, octmask, border}, q, pool);
+            case 7: return render_octree_dvr_cpu(OctreeView{lod_tf, t.bricks, 0xFFFFFFFFu, {}, {}, border}, q, pool);
+            case 8: return render_octree_dvr_cpu(OctreeView{lod_tf, t.bricks, 0xFFFFFFFFu, {}, octmask, border}, q, pool);
             default: return render_octree_dvr_cpu(OctreeView{lod, t.bricks, 0xFFFFFFFFu, {}, octmask, border}, q, pool);
         }
     };
@@ -232,6 +248,9 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
     add("octree", "octant_ranges_ms", octant_ranges_ms, "ms");
     add("octree-lod", "cut_nodes", cut.nodes, "nodes");
     add("octree-lod", "cut_leaves", cut.leaves, "nodes");
+    add("octree", "lod_deviation_ms", deviation_ms, "ms");
+    add("octree-lod-tf", "cut_nodes", cut_tf.nodes, "nodes");
+    add("octree-lod-tf", "cut_leaves", cut_tf.leaves, "nodes");
     add("iso-lod", "cut_nodes", cut_iso.nodes, "nodes");
     for (std::size_t i = 0; i < kImpls; ++i) {
         add(names[i], "rays_per_s", pixels / (res[i].second / 1e3), "rays/s");
@@ -240,7 +259,7 @@ void run_case(const Options& o, const DataCase& c, ThreadPool& pool, std::vector
         for (std::uint32_t s : res[i].first.steps) steps += s;
         add(names[i], "samples_per_ray", steps / pixels, "samples");
     }
-    for (std::size_t i : {1u, 2u, 5u, 6u}) {
+    for (std::size_t i : {1u, 2u, 5u, 6u, 7u, 8u}) {
         ImageDifference d = compare_frames(res[0].first, res[i].first);
         add(names[i], "pixels_differing_vs_marcher", double(d.pixels_differing), "pixels");
         add(names[i], "psnr_vs_marcher", std::isfinite(d.psnr) ? d.psnr : 999.0, "dB (999: identical)");

@@ -366,6 +366,27 @@ sylva_render_test(octree_lod_zero RC 2 ERR "--lod-pixels: '0' is not a number in
   ARGS --index octree --lod-pixels 0 -o ${_out}/x.png)
 sylva_render_test(octree_cut_nodes_zero RC 2 ERR "--cut-nodes: '0' is not a number in"
   ARGS --index octree --cut-nodes 0 -o ${_out}/x.png)
+# The transfer-function-aware refinement of the view's cut (octree/lod_error.hpp): on by default
+# with --lod-pixels for DVR (1/64), off with 1; not with iso, without --lod-pixels or out of core.
+# Marschner-Lobb's ripples are all detail: at 48x36 the projection alone stops at 9 nodes, the
+# TF bound refines to more than a hundred (585 at the time of writing: all).
+foreach(_e 0.015625 1)
+  if(_e STREQUAL "1")
+    set(_cut JSON_EQUAL max_tf_error=1 bricks=585 cut_nodes=9 JSON_MIN visible_pixels=500)
+  else()
+    set(_cut JSON_EQUAL max_tf_error=${_e} bricks=585 JSON_MIN visible_pixels=500 cut_nodes=100)
+  endif()
+  sylva_render_test(octree_lod_tf_${_e}
+    ARGS --volume procedural:ml --index octree --lod-pixels 1 --max-tf-error ${_e} --brick 16 --size 48x36 --quiet
+         -o ${_out}/octree_lod_tf_${_e}.png --stats-json ${_out}/octree_lod_tf_${_e}.json
+    FILES ${_out}/octree_lod_tf_${_e}.png JSON ${_out}/octree_lod_tf_${_e}.json EXTRA_KEYS ${_oct_keys} ${_cut})
+endforeach()
+sylva_render_test(octree_max_tf_error_without_lod RC 2 ERR "--max-tf-error refines the view's cut: it needs --lod-pixels"
+  ARGS --index octree --max-tf-error 0.1 -o ${_out}/x.png)
+sylva_render_test(octree_max_tf_error_range RC 2 ERR "--max-tf-error: '2' is not a number in"
+  ARGS --index octree --lod-pixels 1 --max-tf-error 2 -o ${_out}/x.png)
+sylva_render_test(octree_max_tf_error_ooc RC 2 ERR "--max-tf-error: the out-of-core octree refines by projection only"
+  ARGS --index octree --lod-pixels 1 --max-tf-error 0.1 --frames 2 -o ${_out}/x.png)
 # The element octree over particles (--particles or --count with --index octree), both backends.
 set(_octe_keys "octree_nodes;octree_levels;references;references_per_element;index_bytes;record_bytes")
 foreach(backend cpu vulkan)

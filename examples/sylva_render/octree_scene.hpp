@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 #include <sylva/octree/build.hpp>
 #include <sylva/octree/cut.hpp>
 #include <sylva/octree/encode.hpp>
+#include <sylva/octree/lod_error.hpp>
 #include <sylva/octree/octants.hpp>
 #include <sylva/render/image.hpp>
 #include <sylva/render/octree_volume.hpp>
@@ -65,7 +67,11 @@ inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid&
     std::vector<std::uint32_t> words = octree::encode(tree);
     octree::Cut cut;
     if (o.lod_pixels > 0.0f) {
-        cut = select_octree_cut(words, vp, {o.lod_pixels, o.cut_nodes}, iso, grid_border(o));
+        // The TF-aware refinement (octree/lod_error.hpp) for DVR: the deviation tables once.
+        std::optional<octree::LodDeviation> deviation;
+        if (!iso && o.max_tf_error < 1.0f) deviation = octree::lod_deviation(words, tree.bricks, pool);
+        cut = select_octree_cut(words, vp, {o.lod_pixels, o.cut_nodes, o.max_tf_error}, iso, grid_border(o),
+                                deviation ? &*deviation : nullptr);
         octree::apply_cut(words, cut);
     } else {  // the full-resolution cut: every node
         cut.nodes = static_cast<std::uint32_t>(tree.nodes.size());
@@ -117,6 +123,7 @@ inline int run_octree_volume(const Options& o, const sylva::volume::DensityGrid&
     r.cut_deepest = cut.deepest;
     r.levels = tree.levels;
     r.lod_pixels = o.lod_pixels;
+    r.max_tf_error = (o.lod_pixels > 0.0f && !iso) ? o.max_tf_error : 1.0f;
     s.elements = g.values.size();
     s.nodes = tree.nodes.size();
     s.leaves = cut.leaves;

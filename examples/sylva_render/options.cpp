@@ -382,6 +382,11 @@ void add_volume_indices(CLI::App& app, Options& o) {
     t.number("--lod-pixels", o.lod_pixels, 1e-3, 1e4, "P",
              "view-dependent cut: refine while a node's voxels project larger than P pixels",
              "none: the full-resolution cut");
+    t.number("--max-tf-error", o.max_tf_error, 0, 1, "E",
+             "with --lod-pixels, DVR: refine nodes under P pixels too while their samples, classified by the "
+             "TF, may differ from their voxels' by more than E (sylva/octree/lod_error.hpp; 1: the projection alone, "
+             "as the paper)",
+             "1/64");
     t.number("--cut-nodes", o.cut_nodes, 1, 4294967295.0, "N", "node budget of the cut");
 
     Group c{app, "out of core (--index octree and a volume)"};
@@ -449,14 +454,16 @@ void check_input(const Options& o, const CLI::App& app) {
         throw std::invalid_argument("--animate moves particles (--index bih, kd or octree), not volumes");
     if (o.order == "leaf" && o.particle_kd() && o.backend == "vulkan") throw std::invalid_argument(leaf_kd_host_only);
     if (o.particle_octree())
-        for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
+        for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes", "--max-tf-error"})
             if (given(app, opt))
                 throw std::invalid_argument(std::string(opt) + " applies to the bricked octree of volumes, not to particles");
     if (o.volume_input() && given(app, "--order"))
         throw std::invalid_argument("--order exact|leaf orders particles, not volumes");
     if (!o.octree_index())
-        for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes"})
+        for (const char* opt : {"--brick", "--lod-pixels", "--cut-nodes", "--max-tf-error"})
             if (given(app, opt)) throw std::invalid_argument(std::string(opt) + " needs --index octree");
+    if (given(app, "--max-tf-error") && !given(app, "--lod-pixels"))
+        throw std::invalid_argument("--max-tf-error refines the view's cut: it needs --lod-pixels");
 }
 
 /// The volume options against the index, the input and each other; sets what they imply (the
@@ -477,6 +484,9 @@ void check_volume(Options& o, const CLI::App& app) {
                 throw std::invalid_argument(std::string(opt) + " does not apply to a brick store (its bricks are built)");
     if (!o.octree_index() && store)
         throw std::invalid_argument("--volume " + o.volume + " is a brick store: it renders with --index octree");
+    if (o.frames > 0 && given(app, "--max-tf-error"))
+        throw std::invalid_argument("--max-tf-error: the out-of-core octree refines by projection only (its cut is the "
+                                    "loader's; the deviation tables need every brick)");
     if (o.octree_index() && o.dvr == "multi")
         throw std::invalid_argument("--dvr multi is BIH-DVR's; --index octree samples the marcher's lattice");
     if (o.ikd_index() && o.mode == "dvr")

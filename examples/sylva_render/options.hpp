@@ -30,6 +30,7 @@ struct Options {
     std::uint32_t brick = 32;        ///< --brick 16|32: octree brick size
     float lod_pixels = 0.0f;         ///< --lod-pixels P: view-dependent octree cut (0: full resolution)
     std::uint32_t cut_nodes = 1u << 20;  ///< --cut-nodes N: node budget of the octree cut
+    float max_tf_error = 1.0f / 64.0f;   ///< --max-tf-error E: the cut's TF-aware refinement (octree::CutConfig)
     std::string mode;                ///< --mode dvr|iso (volumes, default dvr; implies a procedural volume without input)
     std::string dvr = "single";      ///< --dvr single|multi: BIH-DVR samples per leaf (Kinkelin 4.3)
     std::string tf;                  ///< --tf FILE (.json or text control points)

@@ -99,6 +99,7 @@ struct Stats {
         std::uint32_t brick_size = 0, levels = 0, cut_leaves = 0, cut_deepest = 0;
         std::size_t bricks = 0, octree_nodes = 0, index_bytes = 0, brick_bytes = 0, cut_nodes = 0;
         float lod_pixels = 0.0f;  ///< 0: the full-resolution cut
+        float max_tf_error = 1.0f;  ///< the cut's TF-aware refinement (1: none)
         std::string brick_format = "float32";  ///< float32|unorm16|unorm8 (--grid native keeps uint8 / uint16 voxels)
     } octree;
 
@@ -187,7 +188,11 @@ struct Stats {
                << octree.index_bytes << " B, bricks " << octree.brick_bytes << " B\n"
                << "cut              " << octree.cut_nodes << " nodes, " << octree.cut_leaves << " leaves, deepest level "
                << octree.cut_deepest
-               << (octree.lod_pixels > 0.0f ? " (--lod-pixels " + std::to_string(octree.lod_pixels) + ")"
+               << (octree.lod_pixels > 0.0f ? " (--lod-pixels " + std::to_string(octree.lod_pixels) +
+                                                  (octree.max_tf_error < 1.0f
+                                                       ? ", --max-tf-error " + std::to_string(octree.max_tf_error)
+                                                       : std::string()) +
+                                                  ")"
                                             : std::string(" (full resolution)"))
                << "\n";
         if (ooc.present) print_ooc(os);
@@ -338,6 +343,7 @@ struct Stats {
             j["cut_leaves"] = octree.cut_leaves;
             j["cut_deepest_level"] = octree.cut_deepest;
             j["lod_pixels"] = json_float(octree.lod_pixels);
+            j["max_tf_error"] = json_float(octree.max_tf_error);
         }
         if (ooc.present) add_ooc_json(j);
         if (elements_octree.present) {

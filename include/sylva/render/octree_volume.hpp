@@ -28,6 +28,7 @@
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
 #include "sylva/octree/cut.hpp"
+#include "sylva/octree/lod_error.hpp"
 #include "sylva/render/volume.hpp"
 #include "sylva/shared/octree_dvr.h"
 #include "sylva/shared/octree_iso.h"
@@ -199,6 +200,20 @@ private:
     }
 };
 
+/// octree::lod_tf_errors for p's transfer function: its classification (sylva_tf_classify, any
+/// kind) at 1,024 evenly spaced densities, colour premultiplied by opacity.
+inline std::vector<float> octree_tf_errors(const octree::LodDeviation& deviation, const VolumeRenderParams& p) {
+    TfWords tfw = tf_words(p);
+    shared::Words tw = tfw.view();
+    const std::uint32_t kind = static_cast<std::uint32_t>(p.tf_kind), entries = tf_entries(p);
+    std::vector<vec4> table(1024);
+    for (std::size_t i = 0; i < table.size(); ++i) {
+        vec4 c = shared::sylva_tf_classify(tw, kind, entries, float(i) / float(table.size() - 1));
+        table[i] = vec4(vec3(c) * c.w, c.w);
+    }
+    return octree::lod_tf_errors(deviation, table);
+}
+
 /// The cut's view of a frame of p: its camera, pinhole or orthographic (p.rays.source; the
 /// caller's rays are taken as seen from p.camera's pinhole).
 inline octree::CutView octree_cut_view(const VolumeRenderParams& p) {
@@ -206,11 +221,16 @@ inline octree::CutView octree_cut_view(const VolumeRenderParams& p) {
 }
 
 /// The cut for a frame of p (octree_cut_view) under cfg, OctreeTerminal's nodes terminal (for
-/// the border mode the frame is rendered with).
+/// the border mode the frame is rendered with); with `deviation` (octree::lod_deviation of the
+/// same octree) and for DVR, nodes whose coarse samples misrepresent their voxels under p's TF
+/// by more than cfg.max_tf_error are refined too (octree_tf_errors).
 inline octree::Cut select_octree_cut(std::span<const std::uint32_t> words, const VolumeRenderParams& p,
-                                     const octree::CutConfig& cfg, bool iso, GridBorder border = {}) {
+                                     const octree::CutConfig& cfg, bool iso, GridBorder border = {},
+                                     const octree::LodDeviation* deviation = nullptr) {
     OctreeTerminal terminal(words, p, iso, border);
-    return octree::select_cut(words, octree_cut_view(p), cfg, terminal);
+    std::vector<float> errors;
+    if (deviation != nullptr && !iso) errors = octree_tf_errors(*deviation, p);
+    return octree::select_cut(words, octree_cut_view(p), cfg, terminal, errors);
 }
 
 }  // namespace sylva
