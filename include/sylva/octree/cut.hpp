@@ -18,6 +18,9 @@
 // under the TF, or an isovalue outside [min, max]) are never refined. A node whose box holds the
 // eye projects infinitely large. Refinement stops at the first node that does not fit the
 // budget: the set never exceeds it and what is refined is always the largest projections.
+// Given per-node transfer-function errors (octree/lod_error.hpp; not in the paper), nodes whose
+// projection is at most lod_pixels are refined too while their error exceeds max_tf_error, in
+// the same order and within the same budget.
 #ifndef SYLVA_OCTREE_CUT_HPP
 #define SYLVA_OCTREE_CUT_HPP
 
@@ -26,8 +29,8 @@
 #include <cstdint>
 #include <limits>
 #include <queue>
-#include <string>
 #include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
