@@ -12,6 +12,7 @@
 #include <sylva/octree/build.hpp>
 #include <sylva/octree/cut.hpp>
 #include <sylva/octree/encode.hpp>
+#include <sylva/octree/lod_error.hpp>
 #include <sylva/octree/octants.hpp>
 #include <sylva/render/octree_volume.hpp>
 #include <sylva/vulkan/octree_volume.hpp>
@@ -197,6 +198,18 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
     }
     CHECK(hits > 3 * std::size_t{p.width} * p.height / 20);  // ~8% of each iso image hits
     CHECK(coarse_leaves > 20);  // the cuts stop above the octree's leaves
+    {  // The transfer-function-aware cut (octree/lod_error.hpp): refines more; the device agrees.
+        octree::LodDeviation deviation = octree::lod_deviation(words, t.bricks, pool);
+        octree::Cut plain = select_octree_cut(words, p, {4.0f, 0xFFFFFFFFu, 1.0f}, false);
+        octree::Cut aware = select_octree_cut(words, p, {4.0f, 0xFFFFFFFFu, 1.0f / 64.0f}, false, {}, &deviation);
+        CHECK(aware.nodes > plain.nodes);
+        std::vector<std::uint32_t> w = words;
+        octree::apply_cut(w, aware);
+        dev.set_index(w);
+        Frame host = render_octree_dvr_cpu(OctreeView{w, t.bricks}, p, pool);
+        Frame device = vk::render_octree_dvr_vulkan(ctx, dev, p);
+        CHECK(frames_agree_here(ctx, host, device, 1e-5f));
+    }
     // A constant border of 1 puts a surface on the faces (samples there blend up to (v + 1) / 2):
     // set_border changes the device's later renders; hits equal the host's.
     dev.set_index(words);
