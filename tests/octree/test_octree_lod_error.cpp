@@ -111,6 +111,38 @@ TEST_CASE("octree lod deviation: the tables equal the brute force over the grid'
     }
 }
 
+TEST_CASE("octree lod deviation: corrupted encodings are refused or summarised, never read out of bounds",
+          "[octree][lod-error][errors]") {
+    // Single bit flips anywhere in the index (header and node records): lod_deviation throws
+    // sylva::Error or returns tables of the right size; ASan (the sanitizer build) checks that
+    // nothing is read out of bounds. A child moved to another level is named.
+    ThreadPool pool(2);
+    octree::Tree t = octree::build(blobs({21, 17, 26}, 8), pool, {4, 1});
+    const std::vector<std::uint32_t> words = octree::encode(t);
+    std::mt19937 rng(77);
+    std::size_t refused = 0, accepted = 0;
+    for (int i = 0; i < 400; ++i) {
+        std::vector<std::uint32_t> bad = words;
+        const std::size_t at = rng() % bad.size();
+        bad[at] ^= 1u << (rng() % 32);
+        try {
+            octree::LodDeviation d = octree::lod_deviation(bad, t.bricks, pool);
+            CHECK(d.lo.size() == d.hi.size());
+            CHECK(d.lo.size() % kBins == 0);
+            ++accepted;
+        } catch (const Error&) {
+            ++refused;
+        }
+    }
+    CHECK(refused > 0);
+    CHECK(accepted > 0);
+    // Node 1's first child made the root: a child on the wrong level.
+    std::vector<std::uint32_t> bad = words;
+    REQUIRE(!t.nodes[1].leaf());
+    bad[SYLVA_OCT_HEADER_WORDS + SYLVA_OCT_NODE_WORDS * 1] = 0u;  // word 0 of a record: its first child
+    CHECK_THROWS_WITH(octree::lod_deviation(bad, t.bricks, pool), Catch::Contains("child outside its parent"));
+}
+
 TEST_CASE("octree lod deviation: a constant volume has one bin a node and no error under any TF", "[octree][lod-error]") {
     ThreadPool pool(2);
     volume::DensityGrid g = blobs({40, 33, 20}, 3);

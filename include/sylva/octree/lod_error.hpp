@@ -117,7 +117,8 @@ LodDeviation lod_deviation(std::span<const std::uint32_t> words, std::span<const
                 for (std::uint32_t k = 0; k < kids && !whole; ++k) {
                     const std::uint32_t c = first + k;
                     const glm::u32vec3 oct = shared::sylva_oct_coord(w, c) - 2u * pc;
-                    if (oct.x > 1u || oct.y > 1u || oct.z > 1u) {
+                    if (oct.x > 1u || oct.y > 1u || oct.z > 1u ||
+                        shared::sylva_oct_level(shared::sylva_oct_flags(w, c)) != level + 1u) {
                         bad_child = true;
                         return;
                     }
@@ -166,10 +167,13 @@ LodDeviation lod_deviation(std::span<const std::uint32_t> words, std::span<const
                         const float c = sample(n, std::uint32_t(v % B), std::uint32_t(v / B % B), std::uint32_t(v / B / B));
                         own[2 * v] = own[2 * v + 1] = c;
                     }
-                for (std::uint32_t k = 0; k < kids; ++k) detail::VoxelRanges().swap(ranges[first + k]);  // done with them
             }
         });
-        if (bad_child) throw Error("octree::lod_deviation: a child outside its parent");
+        if (bad_child) throw Error("octree::lod_deviation: a child outside its parent (or not on the next level)");
+        // The level below is done with (freed only now: a corrupted index may give two parents
+        // one child, and they run in parallel).
+        if (level + 1u < h.levels)
+            for (std::uint32_t c : by_level[level + 1u]) detail::VoxelRanges().swap(ranges[c]);
     }
     return d;
 }
