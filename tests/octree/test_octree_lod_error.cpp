@@ -74,7 +74,8 @@ std::vector<std::uint32_t> step_tf(std::uint32_t from, std::uint32_t alpha = 255
 
 }  // namespace
 
-TEST_CASE("octree lod deviation: the tables equal the brute force over the grid's voxels", "[octree][lod-error]") {
+// [parallel]: the levels are summarised node by node on a thread pool (TSan runs it).
+TEST_CASE("octree lod deviation: the tables equal the brute force over the grid's voxels", "[octree][lod-error][parallel]") {
     // Cubes of 2^k voxels: every coarse voxel lies in the volume, the tables equal the brute
     // force; other shapes: the tables hold the brute force's ranges (replicated edge samples of
     // bricks past the volume may widen them).
