@@ -63,8 +63,9 @@ inline std::uint8_t lod_floor255(float v) { return static_cast<std::uint8_t>(std
 inline std::uint8_t lod_ceil255(float v) { return static_cast<std::uint8_t>(std::ceil(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
 
 /// Per coarse voxel of an inner node (B^3, x fastest), the [min, max] of the full-resolution
-/// voxels under it: `range[2 i]`, `range[2 i + 1]`.
-using VoxelRanges = std::vector<float>;
+/// voxels under it in 1/255 steps rounded outward (as the tables keep them, so the tables come
+/// out the same as from float ranges): `range[2 i]`, `range[2 i + 1]`. 64 KiB a node at B = 32.
+using VoxelRanges = std::vector<std::uint8_t>;
 
 }  // namespace detail
 
@@ -111,7 +112,7 @@ LodDeviation lod_deviation(std::span<const std::uint32_t> words, std::span<const
                 bool whole = !resident(n) || std::uint64_t{first} + kids > h.node_count;
                 for (std::uint32_t k = 0; k < kids && !whole; ++k) whole = !resident(first + k);
                 detail::VoxelRanges& own = ranges[n];
-                own.assign(std::size_t{2} * B * B * B, 0.0f);
+                own.assign(std::size_t{2} * B * B * B, std::uint8_t{0});
                 std::vector<std::uint8_t> covered(std::size_t{B} * B * B, 0u);
                 const glm::u32vec3 pc = shared::sylva_oct_coord(w, n);
                 for (std::uint32_t k = 0; k < kids && !whole; ++k) {
@@ -133,18 +134,23 @@ LodDeviation lod_deviation(std::span<const std::uint32_t> words, std::span<const
                     for (std::uint32_t z = 0; z < half; ++z)
                         for (std::uint32_t y = 0; y < half; ++y)
                             for (std::uint32_t x = 0; x < half; ++x) {
-                                float a = std::numeric_limits<float>::infinity(), e = -a;
-                                for (std::uint32_t q = 0; q < 8; ++q) {
-                                    const std::uint32_t cx = 2 * x + (q & 1u), cy = 2 * y + ((q >> 1) & 1u), cz = 2 * z + (q >> 2);
-                                    if (cr != nullptr) {
+                                std::uint8_t a = 255u, e = 0u;
+                                if (cr != nullptr) {
+                                    for (std::uint32_t q = 0; q < 8; ++q) {
+                                        const std::uint32_t cx = 2 * x + (q & 1u), cy = 2 * y + ((q >> 1) & 1u), cz = 2 * z + (q >> 2);
                                         const std::size_t at = 2 * (cx + B * (cy + std::size_t{B} * cz));
                                         a = std::min(a, (*cr)[at]);
                                         e = std::max(e, (*cr)[at + 1]);
-                                    } else {
-                                        const float u = sample(c, cx, cy, cz);
-                                        a = std::min(a, u);
-                                        e = std::max(e, u);
                                     }
+                                } else {  // a leaf child: its voxels
+                                    float fa = std::numeric_limits<float>::infinity(), fe = -fa;
+                                    for (std::uint32_t q = 0; q < 8; ++q) {
+                                        const float u = sample(c, 2 * x + (q & 1u), 2 * y + ((q >> 1) & 1u), 2 * z + (q >> 2));
+                                        fa = std::min(fa, u);
+                                        fe = std::max(fe, u);
+                                    }
+                                    a = detail::lod_floor255(fa);
+                                    e = detail::lod_ceil255(fe);
                                 }
                                 const glm::u32vec3 v = oct * half + glm::u32vec3(x, y, z);
                                 const std::size_t at = v.x + B * (v.y + std::size_t{B} * v.z);
@@ -152,8 +158,8 @@ LodDeviation lod_deviation(std::span<const std::uint32_t> words, std::span<const
                                 own[2 * at + 1] = e;
                                 covered[at] = 1u;
                                 const std::uint32_t bin = detail::lod_bin(sample(n, v.x, v.y, v.z));
-                                lo[bin] = std::min(lo[bin], detail::lod_floor255(a));
-                                hi[bin] = std::max(hi[bin], detail::lod_ceil255(e));
+                                lo[bin] = std::min(lo[bin], a);
+                                hi[bin] = std::max(hi[bin], e);
                             }
                 }
                 if (whole) {
@@ -165,7 +171,8 @@ LodDeviation lod_deviation(std::span<const std::uint32_t> words, std::span<const
                 for (std::size_t v = 0; v < covered.size(); ++v)  // outside the volume: the node's own sample
                     if (covered[v] == 0u) {
                         const float c = sample(n, std::uint32_t(v % B), std::uint32_t(v / B % B), std::uint32_t(v / B / B));
-                        own[2 * v] = own[2 * v + 1] = c;
+                        own[2 * v] = detail::lod_floor255(c);
+                        own[2 * v + 1] = detail::lod_ceil255(c);
                     }
             }
         });
