@@ -51,6 +51,13 @@ bool hits_agree(const vk::Context& ctx, const std::vector<shared::SylvaHit>& dev
 /// same as changing r^2 by 2^-23 D^2; 16 operations' worth.
 constexpr float kCapsuleRadiusSqUlps = 16.0f;
 
+/// How far capsule_hits_acceptable lets the squared radius of capsule `x` move for rays from
+/// `origin`: kCapsuleRadiusSqUlps 2^-23 D^2, D the origin's distance to the capsule's far end.
+float capsule_radius_sq_slack(const demo::Capsule& x, vec3 origin) {
+    const float dist = std::max(glm::length(origin - x.a), glm::length(origin - x.b)) + x.radius;
+    return kCapsuleRadiusSqUlps * std::ldexp(1.0f, -23) * dist * dist;
+}
+
 /// The capsule `x` with its squared radius changed by `dr2` (nullopt when that leaves none).
 std::optional<demo::Capsule> capsule_with_radius_sq(demo::Capsule x, float dr2) {
     const float r2 = x.radius * x.radius + dr2;
@@ -75,12 +82,10 @@ bool capsule_hits_acceptable(std::span<const std::uint32_t> records, const Ray& 
     std::map<std::uint32_t, std::pair<const shared::SylvaHit*, const shared::SylvaHit*>> by_elem;  // host, device
     for (const auto& h : host) by_elem[h.elem].first = &h;
     for (const auto& h : dev) by_elem[h.elem].second = &h;
-    const float eps = std::ldexp(1.0f, -23);
     for (const auto& [elem, pair] : by_elem) {
         demo::Capsule x{};
         sylva_elem_load(w, elem, x);
-        const float dist = std::max(glm::length(ray.origin - x.a), glm::length(ray.origin - x.b)) + x.radius;
-        const float dr2 = kCapsuleRadiusSqUlps * eps * dist * dist;
+        const float dr2 = capsule_radius_sq_slack(x, ray.origin);
         const auto grown = intersect_element(*capsule_with_radius_sq(x, dr2), ray, range);
         const auto shrunk_x = capsule_with_radius_sq(x, -dr2);
         const auto shrunk = shrunk_x ? intersect_element(*shrunk_x, ray, range) : std::nullopt;
@@ -229,9 +234,7 @@ TEST_CASE("the capsule backward error accepts hits of slightly changed capsules 
         for (auto& h : grown) {
             demo::Capsule x{};
             sylva_elem_load(w, h.elem, x);
-            const float dist = std::max(glm::length(rs[i].origin - x.a), glm::length(rs[i].origin - x.b)) + x.radius;
-            const auto g = intersect_element(*capsule_with_radius_sq(x, 0.5f * kCapsuleRadiusSqUlps * std::ldexp(1.0f, -23) * dist * dist),
-                                             rs[i], ranges[i]);
+            const auto g = intersect_element(*capsule_with_radius_sq(x, 0.5f * capsule_radius_sq_slack(x, rs[i].origin)), rs[i], ranges[i]);
             REQUIRE(g);
             moved = moved || g->t0 != h.t0 || g->t1 != h.t1;
             h.t0 = g->t0;
@@ -243,8 +246,7 @@ TEST_CASE("the capsule backward error accepts hits of slightly changed capsules 
         {  // the first hit's entry past the shrunk capsule's by 10x the distance slack
             demo::Capsule x{};
             sylva_elem_load(w, host[0].elem, x);
-            const float dist = std::max(glm::length(rs[i].origin - x.a), glm::length(rs[i].origin - x.b)) + x.radius;
-            const auto shrunk_x = capsule_with_radius_sq(x, -kCapsuleRadiusSqUlps * std::ldexp(1.0f, -23) * dist * dist);
+            const auto shrunk_x = capsule_with_radius_sq(x, -capsule_radius_sq_slack(x, rs[i].origin));
             const auto shrunk = shrunk_x ? intersect_element(*shrunk_x, rs[i], ranges[i]) : std::nullopt;
             const float late_t0 = shrunk ? shrunk->t0 + 10.0f * devtol::kGpuHitRelative * std::max(1.0f, shrunk->t0) : 0.0f;
             if (shrunk && late_t0 < host[0].t1) {
