@@ -315,13 +315,16 @@ private:
             float tn[kWideWidth];
             int mask = Test::enter(n, r, range.t0, std::min(range.t1, limit()), tn);
             // Push the entered children farthest first, so the nearest is popped next.
+            // Only the entered slots (set bits, lowest first): a loop over all eight slots
+            // branched on each bit, and those branches were a third of the walk's time at 1e4.
             int order[kWideWidth], k = 0;
-            for (int c = 0; c < kWideWidth; ++c)
-                if (mask & (1 << c)) {
-                    int j = k++;
-                    for (; j > 0 && tn[order[j - 1]] < tn[c]; --j) order[j] = order[j - 1];
-                    order[j] = c;
-                }
+            for (int m = mask; m != 0; m &= m - 1) {
+                const int c = lowest_bit(m);
+                const float t = tn[c];
+                int j = k++;
+                for (; j > 0 && tn[order[j - 1]] < t; --j) order[j] = order[j - 1];
+                order[j] = c;
+            }
             for (int j = 0; j < k; ++j) {
                 std::uint32_t c = n.child[order[j]], count = n.count[order[j]];
                 if (count)
