@@ -40,8 +40,16 @@ void check_wide_against_brute_force(const std::vector<E>& elems, const std::vect
         bih::Tree tree = bih::build(es, src.build, pool);
         for (std::uint32_t leaf : {0u, 1u, 4u, 8u}) {
             INFO("BIH " << src.name << ", WideConfig::max_leaf_elements " << leaf);
-            bih::WideTree<E> wide(tree, es, bih::WideConfig{leaf});
+            bih::WideTree<E> serial(tree, es, bih::WideConfig{leaf});
+            // On a pool the subtrees below the top two wide levels are made in parallel and
+            // appended: other node order, same nodes, leaves and depth, same answers.
+            bih::WideTree<E> wide(tree, es, bih::WideConfig{leaf}, pool);
             REQUIRE(wide.stats().nodes > 0);
+            CHECK(wide.stats().nodes == serial.stats().nodes);
+            CHECK(wide.stats().leaves == serial.stats().leaves);
+            CHECK(wide.stats().depth == serial.stats().depth);
+            CHECK(wide.stats().bytes == serial.stats().bytes);
+            if (leaf <= 4u) CHECK(wide.stats().depth >= 3u);  // the parallel parts were made
             std::vector<bih::ElementHit> hits;
             std::size_t total = 0, mismatches = 0;
             for (std::size_t i = 0; i < rays.size(); ++i) {
@@ -52,6 +60,8 @@ void check_wide_against_brute_force(const std::vector<E>& elems, const std::vect
                 if (hits != expected) ++mismatches;
                 auto first = bih::first_hit(wide, rays[i], range);
                 if (expected.empty() ? first.has_value() : (!first || *first != expected.front())) ++mismatches;
+                bih::all_hits(serial, rays[i], hits, range);
+                if (hits != expected) ++mismatches;
             }
             CHECK(mismatches == 0);
             CHECK(total > rays.size() / 10);  // the rays really hit things
@@ -136,13 +146,54 @@ TEST_CASE("a WideTree holds every element once, inside every box above it", "[bi
     auto boxes = testing::degenerate_boxes(3000, 80);
     std::span<const Sphere> ss(spheres);
     std::span<const BoxElement> bs(boxes);
+    ThreadPool pool(2);
     for (const Source& src : sources()) {
         INFO("BIH " << src.name);
         for (std::uint32_t leaf : {1u, 4u, 8u, 13u}) {
             check_structure(bih::WideTree<Sphere>(bih::build(ss, src.build), ss, bih::WideConfig{leaf}), ss);
             check_structure(bih::WideTree<BoxElement>(bih::build(bs, src.build), bs, bih::WideConfig{leaf}), bs);
+            check_structure(bih::WideTree<Sphere>(bih::build(ss, src.build), ss, bih::WideConfig{leaf}, pool), ss);
+            check_structure(bih::WideTree<BoxElement>(bih::build(bs, src.build), bs, bih::WideConfig{leaf}, pool), bs);
         }
     }
+}
+
+TEST_CASE("a WideTree of 50,000 spheres made on a thread pool answers as the serial one", "[bih][wide]") {
+    // From 2^15 BIH nodes the refit forks and the subtrees below the top two wide levels are
+    // made in parallel and appended: other node order, the same nodes, leaves, depth and hits.
+    auto spheres = testing::random_spheres(50000, 86);
+    std::span<const Sphere> ss(spheres);
+    ThreadPool pool(2);
+    bih::Tree tree = bih::build(ss, bih::Config{}, pool);
+    REQUIRE(tree.nodes.size() >= (std::size_t{1} << 15));
+    auto rays = testing::random_rays(1000, {vec3(-1.0f), vec3(1.0f)}, 87);
+    for (std::uint32_t leaf : {1u, 4u}) {
+        INFO("WideConfig::max_leaf_elements " << leaf);
+        bih::WideTree<Sphere> serial(tree, ss, bih::WideConfig{leaf});
+        bih::WideTree<Sphere> wide(tree, ss, bih::WideConfig{leaf}, pool);
+        CHECK(wide.stats().nodes == serial.stats().nodes);
+        CHECK(wide.stats().leaves == serial.stats().leaves);
+        CHECK(wide.stats().depth == serial.stats().depth);
+        CHECK(wide.stats().bytes == serial.stats().bytes);
+        CHECK(wide.stats().depth >= 4u);  // parts below depth 3 were made
+        check_structure(wide, ss);
+        std::vector<bih::ElementHit> hits, expected;
+        std::size_t mismatches = 0, total = 0;
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            bih::all_hits(serial, rays[i], expected);
+            if (i % 10 == 0) CHECK(expected == bih::brute_force_hits(ss, rays[i]));
+            bih::all_hits(wide, rays[i], hits);
+            total += hits.size();
+            if (hits != expected) ++mismatches;
+            if (bih::first_hit(wide, rays[i]) != bih::first_hit(serial, rays[i])) ++mismatches;
+        }
+        CHECK(mismatches == 0);
+        CHECK(total > rays.size());
+    }
+    bih::Tree past = tree;  // refused from inside the parallel refit too
+    for (auto& n : past.nodes)
+        if (n.leaf()) n.first = static_cast<std::uint32_t>(past.order.size());
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(past, ss, bih::WideConfig{}, pool), Catch::Contains("past the tree's order"));
 }
 
 TEST_CASE("WideTree rays lying in box planes see the closed boxes", "[bih][wide]") {
@@ -269,9 +320,12 @@ TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothin
     for (auto& n : past.nodes)
         if (n.leaf()) n.first = static_cast<std::uint32_t>(past.order.size());
     CHECK_THROWS_WITH(bih::WideTree<Sphere>(past, ms), Catch::Contains("past the tree's order"));
+    ThreadPool pool(2);  // the same refusals from the parallel refit (thrown inside its tasks)
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(cyclic, ms, bih::WideConfig{}, pool), Catch::Contains("reached twice"));
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(past, ms, bih::WideConfig{}, pool), Catch::Contains("past the tree's order"));
 
-    // A hand-made chain so deep that even collapsed (about seven levels a wide node) it is
-    // deeper than the cap: refused, so the query stacks stay bounded.
+    // A hand-made chain deeper than the builder's cap (1000 levels): refused, so the query
+    // stacks and the refit's recursion stay bounded.
     std::vector<Sphere> line;
     for (int i = 0; i < 1000; ++i)
         line.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
@@ -296,6 +350,7 @@ TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothin
     deep.nodes.push_back(last);
     std::span<const Sphere> ls(line);
     CHECK_THROWS_WITH(bih::WideTree<Sphere>(deep, ls, bih::WideConfig{1}), Catch::Contains("deeper than"));
+    CHECK_THROWS_WITH(bih::WideTree<Sphere>(deep, ls, bih::WideConfig{1}, pool), Catch::Contains("deeper than"));
 
     bih::WideTree<Sphere> empty;
     std::vector<bih::ElementHit> hits{{1u, {}}};
