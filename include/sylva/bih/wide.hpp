@@ -562,8 +562,8 @@ private:
         /// were 26 of the collapse's 69 ms). Empty for other element types.
         LargeVector<E> sorted;
 
-        /// Tight boxes, counts and order ranges of every BIH subtree, children before parents;
-        /// the leaves (which read the elements) in parallel.
+        /// Tight boxes, counts and order ranges of every BIH subtree the root reaches, children
+        /// before parents (subtree_facts), after the links are checked (check_links).
         template <class X>
         void refit(X& exec) {
             if constexpr (kSpheres) {
