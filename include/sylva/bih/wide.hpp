@@ -559,18 +559,25 @@ private:
         /// Spheres in the tree's order (sorted[k] = elements[order[k]]): gathered once, in
         /// parallel, so that the leaves' boxes and the packets read them in sequence instead of
         /// each making a random read per sphere (measured at 10^6 spheres: the two random passes
-        /// were 26 of the collapse's 69 ms). Empty for other element types.
+        /// were 26 of the collapse's 69 ms). Empty for other element types and small trees
+        /// (parallel()), whose spheres stay in cache: there the copy only cost a first build.
         LargeVector<E> sorted;
+        /// Element k of the tree's order.
+        [[nodiscard]] const E& ordered(std::size_t k) const {
+            return sorted.empty() ? elements[tree.order[k]] : sorted[k];
+        }
 
         /// Tight boxes, counts and order ranges of every BIH subtree the root reaches, children
         /// before parents (subtree_facts), after the links are checked (check_links).
         template <class X>
         void refit(X& exec) {
             if constexpr (kSpheres) {
-                sorted.resize(tree.order.size());
-                exec.parallel_for(0, tree.order.size(), 16384, [&](std::size_t lo, std::size_t hi) {
-                    for (std::size_t k = lo; k < hi; ++k) sorted[k] = elements[tree.order[k]];
-                });
+                if (parallel()) {
+                    sorted.resize(tree.order.size());
+                    exec.parallel_for(0, tree.order.size(), 16384, [&](std::size_t lo, std::size_t hi) {
+                        for (std::size_t k = lo; k < hi; ++k) sorted[k] = elements[tree.order[k]];
+                    });
+                }
             }
             facts.assign(tree.nodes.size(), {});
             check_links();
@@ -651,7 +658,7 @@ private:
                 f.first = node.first;
                 f.count = node.count;
                 for (std::uint32_t k = node.first; k < node.first + node.count; ++k)
-                    f.box.extend(bounds_of(kSpheres ? sorted[k] : elements[tree.order[k]]));
+                    f.box.extend(bounds_of(ordered(k)));
                 return f;
             }
             std::uint32_t lo = std::numeric_limits<std::uint32_t>::max(), hi = 0;
@@ -689,7 +696,7 @@ private:
                 int slot;
                 std::uint32_t n, depth;  ///< BIH node and wide depth of the subtree's root
             };
-            std::vector<WideNode> nodes;
+            LargeVector<WideNode> nodes;
             std::vector<LeafJob> jobs;
             std::vector<Deferred> deferred;
             std::uint32_t records = 0;
@@ -710,6 +717,14 @@ private:
                 top.depth = 1;
             } else {
                 make_node(top, 0, 0, 1);
+            }
+            if (top.deferred.empty()) {  // all of it: taken as it is, not copied
+                out.nodes_ = std::move(top.nodes);
+                jobs = std::move(top.jobs);
+                records = top.records;
+                out.stats_.depth = top.depth;
+                out.stats_.leaves = top.leaves;
+                return;
             }
             std::vector<Part> parts(top.deferred.size());
             exec.parallel_for(0, parts.size(), 1, [&](std::size_t lo, std::size_t hi) {
@@ -868,7 +883,7 @@ private:
                         for (std::uint32_t k = 0; k < job.count; ++k) {
                             std::uint32_t id = tree.order[job.first + k];
                             SpherePacket& p = out.records_[job.record + k / 4u];
-                            const Sphere& sp = sorted[job.first + k];
+                            const Sphere& sp = ordered(job.first + k);
                             for (int a = 0; a < 3; ++a) p.c[a][k % 4u] = sp.center[a];
                             p.r[k % 4u] = sp.radius;
                             out.ids_[std::size_t{job.record} * 4u + k] = id;
