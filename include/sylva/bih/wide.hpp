@@ -228,9 +228,9 @@ public:
     static constexpr bool kSpheres = std::is_same_v<E, Sphere>;
 
     WideTree() = default;
-    /// Collapses `tree` (built over `elements`): the refit, the wide nodes below the top two
-    /// levels and the copy of the elements run in parallel on `exec` (the tree is the same on
-    /// any executor but for the order of its nodes and records). Throws sylva::Error when the
+    /// Collapses `tree` (built over `elements`): the copy of the elements runs in parallel on
+    /// `exec`, and from 2^15 BIH nodes on so do the refit and the wide nodes below the top two
+    /// levels (the tree is the same on any executor but for the order of its nodes and records). Throws sylva::Error when the
     /// tree does not fit the elements (a link out of range, a node reached twice, a leaf past
     /// the order, an element index out of range, a BIH deeper than SYLVA_BIH_DEPTH_CAP + 1
     /// levels, the builder's cap).
