@@ -3,14 +3,27 @@
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
+#include <utility>
+#include <vector>
 
+#include <sylva/core/executor.hpp>
 #include <sylva/core/memory.hpp>
+#include <sys/mman.h>
 #include <unistd.h>
 
 using namespace sylva;
 
 namespace {
 std::uintptr_t address(const void* p) { return reinterpret_cast<std::uintptr_t>(p); }
+
+/// Pages of [p, p + bytes) the kernel holds in memory (mincore), of all of them.
+std::pair<std::size_t, std::size_t> resident_pages(const void* p, std::size_t bytes) {
+    const std::size_t page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+    std::vector<unsigned char> in((bytes + page - 1) / page);
+    REQUIRE(::mincore(const_cast<void*>(p), bytes, in.data()) == 0);
+    return {static_cast<std::size_t>(std::count_if(in.begin(), in.end(), [](unsigned char b) { return (b & 1u) != 0; })),
+            in.size()};
+}
 }  // namespace
 
 TEST_CASE("large blocks are 2 MiB aligned, cached on free and reused warm", "[memory]") {
@@ -72,4 +85,35 @@ TEST_CASE("the default cache holds a rebuild of the largest default BIH the benc
     CHECK(memory::default_cache_bytes() == want);
     CHECK(memory::Config{}.cache_bytes == want);
     if (quarter >= 2 * gib) CHECK(memory::default_cache_bytes() >= 2 * gib);  // this project's 24 GiB machines
+}
+
+TEST_CASE("prefault faults a block in on the pool and caches it for the allocation that follows", "[memory]") {
+    memory::Config keep = memory::config();
+    memory::configure({.cache_bytes = std::size_t{64} << 20, .huge_pages = true});
+    memory::release_cache();
+    ThreadPool pool(2);
+    const std::size_t n = std::size_t{3} << 20;  // 12 MiB of floats
+    memory::Stats s0 = memory::stats();
+    memory::prefault<float>(n, pool);
+    memory::Stats s1 = memory::stats();
+    CHECK(s1.maps == s0.maps + 1);
+    CHECK(s1.cached_bytes == std::size_t{12} << 20);
+    {
+        LargeVector<float> v;
+        v.reserve(n);  // the prefaulted block, every page already in memory
+        CHECK(memory::stats().reuses == s1.reuses + 1);
+        CHECK(memory::stats().cached_bytes == 0);
+        auto [resident, pages] = resident_pages(v.data(), n * sizeof(float));
+        CHECK(resident == pages);
+        v.resize(n);
+        CHECK(v[n - 1] == 0.0f);  // the vector still value-initialises what it gets
+    }
+    SerialExecutor serial;  // one thread: the resize faults as fast, nothing to do
+    memory::Stats s2 = memory::stats();
+    memory::prefault<float>(n, serial);
+    memory::prefault<float>(1000, pool);  // a small block: operator new's, not ours
+    memory::prefault<float>(SIZE_MAX / 2, pool);  // absurd: left to the allocation to refuse
+    CHECK(memory::stats().maps == s2.maps);
+    CHECK(memory::stats().reuses == s2.reuses);
+    memory::configure(keep);
 }

@@ -495,6 +495,10 @@ void assemble(Chunk& root, Tree& t, X& exec) {
         t.nodes = std::move(root.nodes);
         return;
     }
+    if (t.nodes.capacity() < total) {  // new pages: faulted on all threads, not in the resize
+        t.nodes.clear();
+        memory::prefault<Node>(total, exec);
+    }
     t.nodes.resize(total);
     Node* out = t.nodes.data();
     exec.parallel_for(0, list.size(), 1, [&](std::size_t lo, std::size_t hi) {
@@ -536,6 +540,10 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     cfg.max_leaf_elements = std::max<std::uint32_t>(cfg.max_leaf_elements, 1);
 
     t.stats = {};
+    if (t.order.capacity() < elements.size()) {  // new pages: faulted on all threads, not in the resize
+        t.order.clear();
+        memory::prefault<std::uint32_t>(elements.size(), exec);
+    }
     t.order.resize(elements.size());
     detail::Chunk root;
     {

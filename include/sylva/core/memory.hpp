@@ -39,6 +39,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "sylva/core/executor.hpp"
+
 #if defined(__unix__)
 #include <unistd.h>
 #endif
@@ -278,6 +280,33 @@ private:
     std::size_t n_;
     T* p_;
 };
+
+/// Faults in the pages of the large block that the next LargeAllocator<T> allocation of n
+/// elements will get, one write a 4 KiB page spread over the executor's threads, and hands the
+/// block back to the cache, where that allocation (the same size: the best fit) finds it. For
+/// a LargeVector about to be resized: its resize writes every element on one thread, and on
+/// fresh memory the kernel zeroes each page in the fault of the thread that first writes it,
+/// so without this one thread pays for all of the zeroing (on this project's machines up to
+/// seconds for 140 MB, when the hypervisor has taken the memory back: README, "Known gaps").
+/// Nothing happens for small blocks or a one-thread executor.
+template <class T, Executor X>
+void prefault(std::size_t n, X& exec) {
+    if (n > SIZE_MAX / sizeof(T) || exec.concurrency() < 2) return;
+    const std::size_t bytes = n * sizeof(T);
+    if (bytes < kLargeBlock) return;
+    detail::LargeBlocks& blocks = detail::LargeBlocks::instance();
+    auto* p = static_cast<volatile unsigned char*>(blocks.allocate(bytes));
+    const std::size_t page = 4096, pages = (bytes + page - 1) / page;
+    try {
+        exec.parallel_for(0, pages, 512, [&](std::size_t lo, std::size_t hi) {
+            for (std::size_t k = lo; k < hi; ++k) p[k * page] = 0;
+        });
+    } catch (...) {
+        blocks.deallocate(const_cast<unsigned char*>(p));
+        throw;
+    }
+    blocks.deallocate(const_cast<unsigned char*>(p));
+}
 
 }  // namespace sylva::memory
 
