@@ -573,12 +573,14 @@ private:
         void refit(X& exec) {
             if constexpr (kSpheres) {
                 if (parallel()) {
+                    memory::prefault<E>(tree.order.size(), exec);  // its pages faulted on all threads
                     sorted.resize(tree.order.size());
                     exec.parallel_for(0, tree.order.size(), 16384, [&](std::size_t lo, std::size_t hi) {
                         for (std::size_t k = lo; k < hi; ++k) sorted[k] = elements[tree.order[k]];
                     });
                 }
             }
+            memory::prefault<detail::SubtreeFacts>(tree.nodes.size(), exec);
             facts.assign(tree.nodes.size(), {});
             check_links();
             subtree_facts(0, 0, parallel() ? kParallelDepth : 0u, exec);
@@ -739,6 +741,7 @@ private:
                 nodes += p.nodes.size();
                 leaves += p.jobs.size();
             }
+            memory::prefault<WideNode>(nodes, exec);  // append writes them on one thread
             out.nodes_.reserve(nodes);
             jobs.reserve(leaves);
             append(top);
@@ -875,7 +878,9 @@ private:
         template <class X>
         void fill(X& exec) {
             if constexpr (kSpheres) {
+                memory::prefault<SpherePacket>(records, exec);  // assign writes them on one thread
                 out.records_.assign(records, SpherePacket{});
+                memory::prefault<std::uint32_t>(std::size_t{records} * 4u, exec);
                 out.ids_.assign(std::size_t{records} * 4u, kNoChild);
                 exec.parallel_for(0, jobs.size(), 1024, [&](std::size_t lo, std::size_t hi) {
                     for (std::size_t j = lo; j < hi; ++j) {
