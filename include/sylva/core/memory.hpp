@@ -288,13 +288,15 @@ private:
 /// fresh memory the kernel zeroes each page in the fault of the thread that first writes it,
 /// so without this one thread pays for all of the zeroing (on this project's machines up to
 /// seconds for 140 MB, when the hypervisor has taken the memory back: README, "Known gaps").
-/// Nothing happens for small blocks or a one-thread executor.
+/// Nothing happens for small blocks, a one-thread executor, or a cache without room for the
+/// block (Config::cache_bytes; it would be given back to the system at once).
 template <class T, Executor X>
 void prefault(std::size_t n, X& exec) {
     if (n > SIZE_MAX / sizeof(T) || exec.concurrency() < 2) return;
     const std::size_t bytes = n * sizeof(T);
-    if (bytes < kLargeBlock) return;
+    if (bytes < kLargeBlock || bytes > SIZE_MAX / 2) return;
     detail::LargeBlocks& blocks = detail::LargeBlocks::instance();
+    if (blocks.stats().cached_bytes + bytes + kHugePage > blocks.config().cache_bytes) return;
     auto* p = static_cast<volatile unsigned char*>(blocks.allocate(bytes));
     const std::size_t page = 4096, pages = (bytes + page - 1) / page;
     try {
