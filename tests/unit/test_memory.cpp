@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <fstream>
 #include <numeric>
+#include <sstream>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -24,7 +27,69 @@ std::pair<std::size_t, std::size_t> resident_pages(const void* p, std::size_t by
     return {static_cast<std::size_t>(std::count_if(in.begin(), in.end(), [](unsigned char b) { return (b & 1u) != 0; })),
             in.size()};
 }
+
+/// The VmFlags of the mapping that holds p (/proc/self/smaps: "hg" advised MADV_HUGEPAGE, "nh"
+/// MADV_NOHUGEPAGE), with a space at both ends; empty when not found.
+std::string vm_flags(const void* p) {
+    std::ifstream smaps("/proc/self/smaps");
+    std::string line;
+    bool inside = false;
+    while (std::getline(smaps, line)) {
+        std::uintptr_t lo = 0, hi = 0;
+        char dash = 0;
+        std::istringstream head(line);
+        if (head >> std::hex >> lo >> dash >> hi && dash == '-' && line.find(':') > line.find(' ')) {
+            inside = lo <= address(p) && address(p) < hi;
+            continue;
+        }
+        if (inside && line.rfind("VmFlags:", 0) == 0) return line.substr(8) + " ";
+    }
+    return {};
+}
 }  // namespace
+
+TEST_CASE("in a SmallPagesWhereCheap scope a new large block keeps 4 KiB pages where their faults are cheap", "[memory]") {
+    memory::Config keep = memory::config();
+    const std::size_t bytes = std::size_t{16} << 20;  // 8 huge pages
+    memory::Stats s0 = memory::stats();
+    memory::configure({.cache_bytes = 0, .huge_pages = true, .small_page_limit_ms = 1e9});  // every probe cheap
+    {
+        memory::LargeBuffer<unsigned char> hot(bytes);  // outside a scope: huge pages, no probe
+        CHECK(memory::stats().small_page_blocks == s0.small_page_blocks);
+        CHECK(vm_flags(hot.data() + bytes / 2).find(" hg ") != std::string::npos);
+    }
+    memory::SmallPagesWhereCheap scope;
+    {
+        memory::LargeBuffer<unsigned char> b(bytes);  // no cache: a fresh mapping
+        CHECK(memory::stats().small_page_blocks == s0.small_page_blocks + 1);
+        auto [resident, pages] = resident_pages(b.data(), std::size_t{1} << 20);
+        CHECK(resident == pages);  // the probe faulted the first MiB in
+        CHECK(vm_flags(b.data() + bytes / 2).find(" nh ") != std::string::npos);
+        CHECK(vm_flags(b.data() + bytes / 2).find(" hg ") == std::string::npos);
+        std::fill(b.data(), b.data() + bytes, std::uint8_t{1});
+        CHECK(b.data()[bytes - 1] == 1);
+    }
+    memory::configure({.cache_bytes = 0, .huge_pages = true, .small_page_limit_ms = 1e-9});  // every probe dear
+    {
+        memory::LargeBuffer<unsigned char> b(bytes);
+        CHECK(memory::stats().small_page_blocks == s0.small_page_blocks + 1);
+        CHECK(vm_flags(b.data() + bytes / 2).find(" hg ") != std::string::npos);
+        CHECK(b.data()[0] == 0);  // the probe's writes leave fresh memory zero
+    }
+    memory::configure({.cache_bytes = 0, .huge_pages = true, .small_page_limit_ms = 1e9});
+    {
+        memory::LargeBuffer<unsigned char> small(std::size_t{6} << 20);  // 3 huge pages: no probe
+        CHECK(memory::stats().small_page_blocks == s0.small_page_blocks + 1);
+        CHECK(vm_flags(small.data()).find(" hg ") != std::string::npos);
+    }
+    memory::configure({.cache_bytes = 0, .huge_pages = true, .small_page_limit_ms = 0.0});  // never probe
+    {
+        memory::LargeBuffer<unsigned char> b(bytes);
+        CHECK(memory::stats().small_page_blocks == s0.small_page_blocks + 1);
+        CHECK(vm_flags(b.data() + bytes / 2).find(" hg ") != std::string::npos);
+    }
+    memory::configure(keep);
+}
 
 TEST_CASE("large blocks are 2 MiB aligned, cached on free and reused warm", "[memory]") {
     memory::Config keep = memory::config();

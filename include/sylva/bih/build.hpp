@@ -532,6 +532,9 @@ inline void measure(Tree& t) {
 template <Bounded E, Executor X>
 void build_into(Tree& t, std::span<const E> elements, const Config& config, X& exec) {
     auto start = std::chrono::steady_clock::now();
+    // The records, nodes and order are written once and read by the encoder or the WideTree
+    // collapse, not by queries: 4 KiB pages where those fault cheaply (core/memory.hpp).
+    memory::SmallPagesWhereCheap small_pages;
     if (elements.empty()) throw Error("bih::build: no elements (empty input)");
     if (elements.size() >= std::numeric_limits<std::uint32_t>::max())
         throw Error("bih::build: too many elements (" + std::to_string(elements.size()) + ", at most 2^32 - 2)");

@@ -16,8 +16,16 @@
 //      memory faults on the host again. Huge pages are carved from those blocks, 4 KiB pages
 //      mostly from recycled small ones; measured on one such machine (README, "Cold and steady
 //      state"), 400 MB took 130-230 ms with 4 KiB pages and either 25-40 ms or 490-710 ms
-//      advised. The advice stays (it is the large win on a new machine); what holds on every
-//      machine is touching less and touching it once:
+//      advised. So a builder's scratch and intermediate arrays (mapped inside a
+//      SmallPagesWhereCheap scope) first time the faults of their first MiB in 4 KiB pages
+//      (MADV_NOHUGEPAGE): where they are cheap (Config::small_page_limit_ms) the block keeps
+//      4 KiB pages, else the rest is advised MADV_HUGEPAGE. Measured on such a machine,
+//      128 MB after 3 s idle: 1.2-1.8 s advised (5-35 ms a huge page), 47-58 ms in 4 KiB pages
+//      (0.35-0.45 ms a MiB); back to back the huge pages took 17 ms once. On a new machine 4 KiB
+//      faults cost about 3 ms a MiB and huge pages 0.1 ms. Arrays that queries traverse (a
+//      WideTree, an encoding) keep huge pages: in 4 KiB pages WideTree queries at 10^7 spheres
+//      ran 13-15 % slower (TLB reach). What holds on every machine is touching less and
+//      touching it once:
 //   2. Keeping capacity: freed large blocks go to a process-wide cache (bounded by
 //      Config::cache_bytes) and the next large allocation of a similar size reuses one, whose
 //      pages are already faulted in. So rebuilding a tree of the same size every frame touches
@@ -30,6 +38,7 @@
 #define SYLVA_CORE_MEMORY_HPP
 
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -79,8 +88,16 @@ struct Config {
     /// spheres frees and reallocates 1.7 GB (1.37 GB of nodes, the scratch): with the former
     /// 1 GiB every such rebuild mapped fresh memory (steady builds 1.35-2.9 s instead of 1.5 s).
     std::size_t cache_bytes = default_cache_bytes();
-    /// Advise MADV_HUGEPAGE on large blocks.
+    /// Advise MADV_HUGEPAGE on large blocks (where 4 KiB faults are dear, below).
     bool huge_pages = true;
+    /// Inside a SmallPagesWhereCheap scope, a new block of at least 4 huge pages first touches
+    /// its first MiB in 4 KiB pages; when
+    /// that took less than this many ms, 4 KiB faults are cheap on this machine and the block
+    /// keeps 4 KiB pages (no huge-page lottery), otherwise the rest of it is advised
+    /// MADV_HUGEPAGE. 1.5: 4 KiB faults cost 0.35-0.45 ms a MiB on a VM that has run for hours
+    /// (where a huge page can cost 5-35 ms), about 3 ms on a new one (where it costs 0.1 ms).
+    /// 0: always advise.
+    double small_page_limit_ms = 1.5;
 };
 
 /// Counters of the large-block allocator.
@@ -89,9 +106,15 @@ struct Stats {
     std::size_t cached_bytes = 0;   ///< bytes in the cache
     std::size_t maps = 0;           ///< blocks mapped from the system so far
     std::size_t reuses = 0;         ///< allocations served from the cache so far
+    std::size_t small_page_blocks = 0;  ///< blocks kept in 4 KiB pages (their faults were cheap)
 };
 
 namespace detail {
+/// How many SmallPagesWhereCheap scopes are open on this thread.
+inline int& small_pages_scopes() {
+    thread_local int open = 0;
+    return open;
+}
 
 class LargeBlocks {
 public:
@@ -179,17 +202,38 @@ private:
         if (tail > 0) ::munmap(reinterpret_cast<void*>(aligned + size), tail);
         void* p = reinterpret_cast<void*>(aligned);
         bool huge;
+        double limit_ms;
         {
             std::lock_guard lock(mutex_);
             huge = config_.huge_pages;
+            limit_ms = config_.small_page_limit_ms;
         }
-#ifdef MADV_HUGEPAGE
-        if (huge) ::madvise(p, size, MADV_HUGEPAGE);
+#if defined(MADV_HUGEPAGE) && defined(MADV_NOHUGEPAGE)
+        if (huge && limit_ms > 0.0 && size >= 4 * kHugePage && small_pages_scopes() > 0) {
+            auto* bytes = static_cast<unsigned char*>(p);
+            ::madvise(bytes, kHugePage, MADV_NOHUGEPAGE);
+            bool cheap = small_faults_ms(bytes, std::size_t{1} << 20) < limit_ms;
+            ::madvise(bytes + kHugePage, size - kHugePage, cheap ? MADV_NOHUGEPAGE : MADV_HUGEPAGE);
+            if (cheap) {
+                std::lock_guard lock(mutex_);
+                ++stats_.small_page_blocks;
+            }
+        } else if (huge) {
+            ::madvise(p, size, MADV_HUGEPAGE);
+        }
 #endif
         return p;
 #else
         return ::operator new(size, std::align_val_t{kHugePage});
 #endif
+    }
+
+    /// Milliseconds to fault in `bytes` of fresh 4 KiB pages at p (one write a page; zero stays
+    /// zero).
+    static double small_faults_ms(unsigned char* p, std::size_t bytes) {
+        auto start = std::chrono::steady_clock::now();
+        for (std::size_t at = 0; at < bytes; at += 4096) static_cast<volatile unsigned char*>(p)[at] = 0;
+        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     }
 
     void unmap(void* p, std::size_t size) {
@@ -220,6 +264,18 @@ private:
 };
 
 }  // namespace detail
+
+/// While it lives, new large blocks mapped on this thread keep 4 KiB pages where their faults
+/// are cheap (Config::small_page_limit_ms). For arrays written once and read little, a
+/// builder's scratch and intermediate tree: there a huge page that the host must fault in again
+/// costs more than the array's whole use. Blocks reused from the cache keep their pages.
+class SmallPagesWhereCheap {
+public:
+    SmallPagesWhereCheap() { ++detail::small_pages_scopes(); }
+    ~SmallPagesWhereCheap() { --detail::small_pages_scopes(); }
+    SmallPagesWhereCheap(const SmallPagesWhereCheap&) = delete;
+    SmallPagesWhereCheap& operator=(const SmallPagesWhereCheap&) = delete;
+};
 
 /// The allocator's current settings.
 inline Config config() { return detail::LargeBlocks::instance().config(); }
