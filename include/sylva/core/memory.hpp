@@ -91,12 +91,11 @@ struct Config {
     /// Advise MADV_HUGEPAGE on large blocks (where 4 KiB faults are dear, below).
     bool huge_pages = true;
     /// Inside a SmallPagesWhereCheap scope, a new block of at least 4 huge pages first touches
-    /// its first MiB in 4 KiB pages; when
-    /// that took less than this many ms, 4 KiB faults are cheap on this machine and the block
-    /// keeps 4 KiB pages (no huge-page lottery), otherwise the rest of it is advised
-    /// MADV_HUGEPAGE. 1.5: 4 KiB faults cost 0.35-0.45 ms a MiB on a VM that has run for hours
-    /// (where a huge page can cost 5-35 ms), about 3 ms on a new one (where it costs 0.1 ms).
-    /// 0: always advise.
+    /// its first MiB in 4 KiB pages; when that took less than this many ms, 4 KiB faults are
+    /// cheap on this machine and the block keeps 4 KiB pages (no huge-page lottery), otherwise
+    /// the rest of it is advised MADV_HUGEPAGE. 1.5: 4 KiB faults cost 0.35-0.45 ms a MiB on a
+    /// VM that has run for hours (where a huge page can cost 5-35 ms), about 3 ms on a new one
+    /// (where it costs 0.1 ms). 0: always advise.
     double small_page_limit_ms = 1.5;
 };
 
