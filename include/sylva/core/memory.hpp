@@ -88,7 +88,8 @@ struct Config {
     /// spheres frees and reallocates 1.7 GB (1.37 GB of nodes, the scratch): with the former
     /// 1 GiB every such rebuild mapped fresh memory (steady builds 1.35-2.9 s instead of 1.5 s).
     std::size_t cache_bytes = default_cache_bytes();
-    /// Advise MADV_HUGEPAGE on large blocks (where 4 KiB faults are dear, below).
+    /// Advise MADV_HUGEPAGE on large blocks (inside a SmallPagesWhereCheap scope only where 4 KiB
+    /// faults are dear, below).
     bool huge_pages = true;
     /// Inside a SmallPagesWhereCheap scope, a new block of at least 4 huge pages first touches
     /// its first MiB in 4 KiB pages; when that took less than this many ms, 4 KiB faults are
