@@ -16,7 +16,7 @@ out=${1:?usage: scripts/gpu-bundle.sh OUT.tar.xz [DATA_DIR]}
 data=${2:-}
 [[ $out == /* ]] || out=$PWD/$out
 tests=(sylva_vulkan_tests sylva_parity_tests sylva_dvr_parity_tests test_conformance_vulkan test_elements_gpu_vulkan
-       test_grid_vulkan test_ikd_parity test_iso_parity test_kd_parity test_kd_gpu test_kd_dvr_parity
+       test_grid_vulkan test_ikd_parity test_iso_parity test_kd_parity test_kd_gpu test_kd_ess_gpu test_kd_dvr_parity
        test_kd_elements_parity test_octree_parity test_octree_vulkan test_octree_elements_parity test_residency_vulkan)
 
 bash scripts/deps.sh

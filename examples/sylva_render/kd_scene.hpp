@@ -26,7 +26,7 @@
 #include <sylva/volume/grid.hpp>
 #include <sylva/volume/occupancy.hpp>
 #ifdef SYLVA_RENDER_VULKAN
-#include <sylva/vulkan/kd_build.hpp>
+#include <sylva/vulkan/kd_ess.hpp>
 #include <sylva/vulkan/kd_volume.hpp>
 #endif
 
@@ -61,19 +61,19 @@ inline std::string numbered(const std::string& path, std::size_t k) {
     return (p.parent_path() / (p.stem().string() + "_tf" + std::to_string(k) + p.extension().string())).string();
 }
 
-/// The device state of a Vulkan run: context, grid, and the device local-box pass of kd-binned.
+/// The device state of a Vulkan run: context, grid, and the device occupancy pass of kd-binned.
 struct Device {
 #ifdef SYLVA_RENDER_VULKAN
     std::optional<vk::Context> ctx;
     std::optional<vk::DeviceGrid> grid;
-    std::optional<vk::KdRebuilder<ThreadPool>> rebuilder;
+    std::optional<vk::EssKdRebuilder<ThreadPool>> rebuilder;
 #endif
 };
 
 /// Rebuilds the ESS tree under changing transfer functions: on the host EssRebuilder (kd-binned
-/// from block ranges, kd-vidal over segment codes); for kd-binned on Vulkan, segment codes
-/// (recomputed when the TF's entry count changes) and vk::KdRebuilder (the binned builder's
-/// local boxes on the device, the splitting on the host).
+/// from block ranges, kd-vidal over segment codes); for kd-binned on Vulkan vk::EssKdRebuilder
+/// (block ranges and verdicts on the host, the undecided blocks' voxels on the device from the
+/// marcher's grid, the splitting on the host: the same tree, no segment codes).
 class KdBuilder {
 public:
     KdBuilder(const Options& o, const volume::DensityGrid& g, const GridWords& gw, ThreadPool& pool, Device& dev)
@@ -92,14 +92,10 @@ public:
             return t;
         }
 #ifdef SYLVA_RENDER_VULKAN
-        if (!codes_ || codes_->entries != cls.entries()) {
-            dev_.rebuilder.reset();
-            codes_.emplace(ess_codes(grid_, cls.entries(), pool_, grid_border(o_)));
-            codes_ms_ = codes_->ms;
-            dev_.rebuilder.emplace(*dev_.ctx, codes_->volume, cfg_, pool_);
-        }
+        if (!dev_.rebuilder) dev_.rebuilder.emplace(*dev_.ctx, *dev_.grid, words_, cfg_, pool_);
         kdtree::Tree t = dev_.rebuilder->rebuild(cls);
         timings_ = dev_.rebuilder->timings();
+        ranges_ms_ = dev_.rebuilder->ranges_ms();
         return t;
 #else
         throw Error("--backend vulkan: this sylva-render was built without Vulkan (SYLVA_WITH_VULKAN=OFF)");
@@ -107,12 +103,12 @@ public:
     }
     [[nodiscard]] const kdtree::RebuildTimings& timings() const { return timings_; }
     [[nodiscard]] double codes_ms() const { return codes_ms_; }
-    /// Time of the block ranges' streaming pass (host kd-binned, first build only).
+    /// Time of the block ranges' streaming pass (kd-binned, first build only).
     [[nodiscard]] double ranges_ms() const { return ranges_ms_; }
     [[nodiscard]] double total_ms() const { return codes_ms_ + ranges_ms_ + timings_.total_ms(); }
     [[nodiscard]] bool on_device() const { return o_.backend == "vulkan" && o_.index == "kd-binned"; }
     [[nodiscard]] std::string construction() const {
-        if (on_device()) return "local boxes on the Vulkan device, splitting on the host";
+        if (on_device()) return "block ranges on the host, undecided blocks' voxels on the Vulkan device, splitting on the host";
         if (cfg_.planes != kdtree::Planes::Binned) return "host: segment codes, partial SVTs";
         return raw_words() ? "host: block ranges over the raw voxels, binned local boxes"
                            : "host: block ranges, binned local boxes";
@@ -131,7 +127,6 @@ private:
     ThreadPool& pool_;
     Device& dev_;
     kdtree::Config cfg_;
-    std::optional<EssCodes> codes_;
     std::optional<EssRebuilder<ThreadPool>> host_;
     kdtree::RebuildTimings timings_;
     double codes_ms_ = 0.0, ranges_ms_ = 0.0;

@@ -9,12 +9,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <string>
 #include <vector>
 
 #include <sylva/kdtree/tree.hpp>
+#include <sylva/volume/grid.hpp>
 #include <sylva/volume/occupancy.hpp>
 
 #include "../missing_data.hpp"
@@ -180,6 +182,31 @@ inline std::vector<Ray> make_rays(volume::Dims d, std::size_t n, std::uint32_t s
 /// Path of a data file; a missing file FAILs the test naming the path, or with
 /// SYLVA_ALLOW_MISSING_DATA=1 ends it as skipped (tests/missing_data.hpp).
 inline std::string data_file(const std::string& name) { return testdata::require(name).string(); }
+
+/// `g` quantised into a uint8 or uint16 volume whose value range cuts off both ends (raw values
+/// below range_lo read as density 0, above range_hi as 1: plateaus of the density in the value).
+inline volume::Volume quantised(const volume::DensityGrid& g, volume::ScalarType type) {
+    volume::Volume v;
+    v.type = type;
+    v.dims = g.dims;
+    v.spacing = g.spacing;
+    bool u8 = type == volume::ScalarType::U8;
+    float top = u8 ? 255.0f : 65535.0f;
+    v.range_lo = u8 ? 12.0f : 700.0f;
+    v.range_hi = u8 ? 230.0f : 61000.0f;
+    v.bytes.resize(g.values.size() * (u8 ? 1 : 2));
+    for (std::size_t i = 0; i < g.values.size(); ++i) {
+        // Spread past the range on both sides, so that the plateaus hold voxels.
+        float raw = std::clamp(std::round(g.values[i] * top * 1.1f - 0.05f * top), 0.0f, top);
+        if (u8) {
+            v.bytes[i] = static_cast<std::byte>(static_cast<std::uint8_t>(raw));
+        } else {
+            auto r = static_cast<std::uint16_t>(raw);
+            std::memcpy(&v.bytes[2 * i], &r, 2);
+        }
+    }
+    return v;
+}
 
 }  // namespace sylva::kdtest
 

@@ -515,31 +515,6 @@ TEST_CASE("ess dvr: block ranges and the undecided blocks' voxels give the segme
                       Catch::Contains("NaN density"));
 }
 
-/// `g` quantised into a uint8 or uint16 volume whose value range cuts off both ends (raw values
-/// below range_lo read as density 0, above range_hi as 1: plateaus of the density in the value).
-volume::Volume quantised(const volume::DensityGrid& g, volume::ScalarType type) {
-    volume::Volume v;
-    v.type = type;
-    v.dims = g.dims;
-    v.spacing = g.spacing;
-    bool u8 = type == volume::ScalarType::U8;
-    float top = u8 ? 255.0f : 65535.0f;
-    v.range_lo = u8 ? 12.0f : 700.0f;
-    v.range_hi = u8 ? 230.0f : 61000.0f;
-    v.bytes.resize(g.values.size() * (u8 ? 1 : 2));
-    for (std::size_t i = 0; i < g.values.size(); ++i) {
-        // Spread past the range on both sides, so that the plateaus hold voxels.
-        float raw = std::clamp(std::round(g.values[i] * top * 1.1f - 0.05f * top), 0.0f, top);
-        if (u8) {
-            v.bytes[i] = static_cast<std::byte>(static_cast<std::uint8_t>(raw));
-        } else {
-            auto r = static_cast<std::uint16_t>(raw);
-            std::memcpy(&v.bytes[2 * i], &r, 2);
-        }
-    }
-    return v;
-}
-
 TEST_CASE("ess dvr: native uint8 / uint16 grids, read as their raw voxels, give the occupancy of their densities",
           "[kd_dvr]") {
     ThreadPool pool(2);
@@ -549,7 +524,7 @@ TEST_CASE("ess dvr: native uint8 / uint16 grids, read as their raw voxels, give 
                               volume::Dims{1, 12, 3}, volume::Dims{33, 30, 27}})
         for (volume::ScalarType type : {volume::ScalarType::U8, volume::ScalarType::U16}) {
             volume::DensityGrid source = dims.x == 33 ? volume::marschner_lobb(dims) : volume::sparse_nbody(dims, 6u);
-            volume::Volume raw = quantised(source, type);
+            volume::Volume raw = kdtest::quantised(source, type);
             volume::DensityGrid g = volume::normalize(raw);  // the densities the native grid's samplers read
             INFO(dims.x << "x" << dims.y << "x" << dims.z << ", " << volume::scalar_name(type));
             if (g.values.size() >= 1000) {  // both plateaus hold voxels

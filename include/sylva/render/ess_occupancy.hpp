@@ -31,6 +31,8 @@
 //    16 (8) lanes a vector. On the aneurism with the CT preset 4,567 of 32,768 blocks are read,
 //    and the first build of a binned tree takes 1.35-2.0 streaming passes instead of 40 (bonsai
 //    2.8-3.9, engine 1.9-2.9, bench and sylva-render; README, "The first build a user runs").
+//    On a Vulkan device the undecided blocks are read by shaders/kd_ess_boxes.comp with the
+//    same arithmetic (sylva/shared/kd_ess_boxes.h, sylva/vulkan/kd_ess.hpp).
 #ifndef SYLVA_RENDER_ESS_OCCUPANCY_HPP
 #define SYLVA_RENDER_ESS_OCCUPANCY_HPP
 

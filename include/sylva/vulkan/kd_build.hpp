@@ -67,6 +67,16 @@ inline double kd_ms_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// Throws sylva::Error naming `who` unless `cfg` is a valid binned config (the device passes
+/// give local boxes, which only the binned builder takes).
+inline void check_device_binned(const kdtree::Config& cfg, const char* who) {
+    if (cfg.planes != kdtree::Planes::Binned)
+        throw Error(std::string(who) + ": the device pass builds binned trees only (use Config::binned())");
+    if (cfg.raster == 0 || cfg.raster % kdtree::LocalBoxes::block != 0)
+        throw Error("kdtree: the binned builder's raster must be a multiple of the 8-voxel block");
+    kdtree::detail::check_config(cfg);
+}
+
 }  // namespace detail
 
 /// A volume's voxels on the device and the kernel that computes their local boxes.
@@ -279,11 +289,7 @@ public:
 
     /// Throws sylva::Error unless `cfg` is a valid binned config.
     void set_config(const kdtree::Config& cfg) {
-        if (cfg.planes != kdtree::Planes::Binned)
-            throw Error("vk::KdRebuilder: the device pass builds binned trees only (use Config::binned())");
-        if (cfg.raster == 0 || cfg.raster % kdtree::LocalBoxes::block != 0)
-            throw Error("kdtree: the binned builder's raster must be a multiple of the 8-voxel block");
-        kdtree::detail::check_config(cfg);
+        detail::check_device_binned(cfg, "vk::KdRebuilder");
         cfg_ = cfg;
     }
     [[nodiscard]] const kdtree::Config& config() const { return cfg_; }
