@@ -9,10 +9,14 @@
 #include <utility>
 #include <vector>
 
+#include <sylva/bih/build.hpp>
+#include <sylva/bih/wide.hpp>
 #include <sylva/core/executor.hpp>
 #include <sylva/core/memory.hpp>
 #include <sys/mman.h>
 #include <unistd.h>
+
+#include "generators.hpp"
 
 using namespace sylva;
 
@@ -87,6 +91,26 @@ TEST_CASE("in a SmallPagesWhereCheap scope a new large block keeps 4 KiB pages w
         memory::LargeBuffer<unsigned char> b(bytes);
         CHECK(memory::stats().small_page_blocks == s0.small_page_blocks + 1);
         CHECK(vm_flags(b.data() + bytes / 2).find(" hg ") != std::string::npos);
+    }
+    memory::configure(keep);
+}
+
+TEST_CASE("a WideTree's collapse scratch takes the page choice, its query arrays stay advised", "[memory]") {
+    // 600,000 spheres: the collapse's sorted copy of them (9.6 MB) and its per-node facts are
+    // scratch blocks of >= 8 MiB; the wide nodes are what queries walk.
+    auto spheres = testing::random_spheres(600000, 17);
+    std::span<const Sphere> ss(spheres);
+    ThreadPool pool(2);
+    bih::Tree tree = bih::build(ss, bih::Config{}, pool);
+    memory::Config keep = memory::config();
+    memory::configure({.cache_bytes = 0, .huge_pages = true, .small_page_limit_ms = 1e9});  // every probe cheap
+    memory::Stats s0 = memory::stats();
+    {
+        bih::WideTree<Sphere> wide(tree, ss, bih::WideConfig{}, pool);
+        CHECK(memory::stats().small_page_blocks >= s0.small_page_blocks + 2);
+        std::span<const bih::WideNode> nodes = wide.nodes();
+        REQUIRE(nodes.size_bytes() >= (std::size_t{8} << 20));
+        CHECK(vm_flags(nodes.data() + nodes.size() / 2).find(" hg ") != std::string::npos);
     }
     memory::configure(keep);
 }

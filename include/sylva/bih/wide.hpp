@@ -571,6 +571,10 @@ private:
         /// before parents (subtree_facts), after the links are checked (check_links).
         template <class X>
         void refit(X& exec) {
+            // Scratch of the collapse (sorted, facts, has_parent: written once, read once) keeps
+            // 4 KiB pages where their faults are cheap, as the builder's arrays do; the query
+            // arrays (nodes_, records_, ids_) stay advised huge pages (TLB reach).
+            memory::SmallPagesWhereCheap small_pages;
             if constexpr (kSpheres) {
                 if (parallel()) {
                     memory::prefault<E>(tree.order.size(), exec);  // its pages faulted on all threads
