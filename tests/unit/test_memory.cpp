@@ -95,6 +95,40 @@ TEST_CASE("in a SmallPagesWhereCheap scope a new large block keeps 4 KiB pages w
     memory::configure(keep);
 }
 
+TEST_CASE("a cached block kept in 4 KiB pages is reused only inside a scope", "[memory]") {
+    memory::Config keep = memory::config();
+    const std::size_t bytes = std::size_t{16} << 20;
+    memory::release_cache();
+    memory::configure({.cache_bytes = std::size_t{256} << 20, .huge_pages = true, .small_page_limit_ms = 1e9});
+    const void* small_block = nullptr;
+    {
+        memory::SmallPagesWhereCheap scope;
+        memory::LargeBuffer<unsigned char> b(bytes);
+        small_block = b.data();
+        REQUIRE(vm_flags(b.data() + bytes / 2).find(" nh ") != std::string::npos);
+    }
+    const void* huge_block = nullptr;
+    {
+        memory::LargeBuffer<unsigned char> b(bytes);  // outside: not the cached small block
+        huge_block = b.data();
+        CHECK(b.data() != small_block);
+        CHECK(vm_flags(b.data() + bytes / 2).find(" hg ") != std::string::npos);
+    }
+    {
+        memory::SmallPagesWhereCheap scope;
+        memory::LargeBuffer<unsigned char> b(bytes);  // inside: the small block first
+        CHECK(b.data() == small_block);
+        memory::LargeBuffer<unsigned char> c(bytes);  // then a huge-page block (warm) rather than a new map
+        CHECK(c.data() == huge_block);
+    }
+    {
+        memory::LargeBuffer<unsigned char> b(bytes);  // outside again: the huge-page block
+        CHECK(b.data() == huge_block);
+    }
+    memory::release_cache();
+    memory::configure(keep);
+}
+
 TEST_CASE("a WideTree's collapse scratch takes the page choice, its query arrays stay advised", "[memory]") {
     // 600,000 spheres: the collapse's sorted copy of them (9.6 MB) and its per-node facts are
     // scratch blocks of >= 8 MiB; the wide nodes are what queries walk.

@@ -146,36 +146,36 @@ public:
     /// A block of at least `bytes` (a multiple of kHugePage, 2 MiB-aligned where mapped).
     void* allocate(std::size_t bytes) {
         const std::size_t size = round_up(bytes);
+        const bool scoped = small_pages_scopes() > 0;
         {
             std::lock_guard lock(mutex_);
-            // Best fit among cached blocks no more than twice the size (no large waste).
-            auto it = cache_.lower_bound(size);
-            if (it != cache_.end() && it->first <= 2 * size) {
-                void* p = it->second;
+            auto it = reusable_locked(size, scoped);
+            if (it != cache_.end()) {
+                Block b = it->second;
                 std::size_t got = it->first;
                 cache_.erase(it);
                 stats_.cached_bytes -= got;
                 ++stats_.reuses;
-                live_[p] = got;
-                return p;
+                live_[b.p] = {got, b.small};
+                return b.p;
             }
         }
-        void* p = map(size);
+        Block b = map(size);
         std::lock_guard lock(mutex_);
-        live_[p] = size;
+        live_[b.p] = {size, b.small};
         stats_.mapped_bytes += size;
         ++stats_.maps;
-        return p;
+        return b.p;
     }
 
     void deallocate(void* p) {
         std::lock_guard lock(mutex_);
         auto it = live_.find(p);
         if (it == live_.end()) return;  // not ours: cannot happen through LargeAllocator
-        std::size_t size = it->second;
+        Live l = it->second;
         live_.erase(it);
-        cache_.emplace(size, p);
-        stats_.cached_bytes += size;
+        cache_.emplace(l.size, Block{p, l.small});
+        stats_.cached_bytes += l.size;
         trim_locked(config_.cache_bytes);
     }
 
@@ -183,7 +183,35 @@ public:
     LargeBlocks& operator=(const LargeBlocks&) = delete;
 
 private:
+    /// A mapped block and whether it was left in 4 KiB pages (inside a SmallPagesWhereCheap scope).
+    struct Block {
+        void* p;
+        bool small;
+    };
+    struct Live {
+        std::size_t size;
+        bool small;
+    };
+
     LargeBlocks() = default;
+
+    /// The cached block a new allocation of `size` bytes takes, cache_.end() for none: the best
+    /// fit no more than twice the size (no large waste). Outside a SmallPagesWhereCheap scope
+    /// only blocks in huge pages qualify (the arrays queries walk: a block kept in 4 KiB pages
+    /// would cost them TLB reach for as long as it lives); inside one, blocks in 4 KiB pages
+    /// come first and huge-page blocks after them.
+    std::multimap<std::size_t, Block>::iterator reusable_locked(std::size_t size, bool scoped) {
+        auto huge = cache_.end();
+        for (auto it = cache_.lower_bound(size); it != cache_.end() && it->first <= 2 * size; ++it) {
+            if (it->second.small) {
+                if (scoped) return it;
+            } else if (huge == cache_.end()) {
+                if (!scoped) return it;
+                huge = it;
+            }
+        }
+        return huge;
+    }
 
     static std::size_t round_up(std::size_t bytes) {
         if (bytes > SIZE_MAX - kHugePage) throw std::bad_alloc();
@@ -191,7 +219,7 @@ private:
     }
 
     /// Maps `size` bytes aligned to kHugePage (maps size + 2 MiB, unmaps the slop).
-    void* map(std::size_t size) {
+    Block map(std::size_t size) {
 #if SYLVA_MEMORY_MMAP
         void* raw = ::mmap(nullptr, size + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
         if (raw == MAP_FAILED) throw std::bad_alloc();
@@ -201,6 +229,7 @@ private:
         std::size_t tail = base + size + kHugePage - (aligned + size);
         if (tail > 0) ::munmap(reinterpret_cast<void*>(aligned + size), tail);
         void* p = reinterpret_cast<void*>(aligned);
+        bool small = false;
         bool huge;
         double limit_ms;
         {
@@ -215,6 +244,7 @@ private:
             bool cheap = small_faults_ms(bytes, std::size_t{1} << 20) < limit_ms;
             ::madvise(bytes + kHugePage, size - kHugePage, cheap ? MADV_NOHUGEPAGE : MADV_HUGEPAGE);
             if (cheap) {
+                small = true;
                 std::lock_guard lock(mutex_);
                 ++stats_.small_page_blocks;
             }
@@ -222,9 +252,9 @@ private:
             ::madvise(p, size, MADV_HUGEPAGE);
         }
 #endif
-        return p;
+        return {p, small};
 #else
-        return ::operator new(size, std::align_val_t{kHugePage});
+        return {::operator new(size, std::align_val_t{kHugePage}), false};
 #endif
     }
 
@@ -249,7 +279,7 @@ private:
     void trim_locked(std::size_t keep) {
         while (stats_.cached_bytes > keep && !cache_.empty()) {
             auto it = std::prev(cache_.end());
-            unmap(it->second, it->first);
+            unmap(it->second.p, it->first);
             stats_.cached_bytes -= it->first;
             stats_.mapped_bytes -= it->first;
             cache_.erase(it);
@@ -259,8 +289,8 @@ private:
     std::mutex mutex_;
     Config config_;
     Stats stats_;
-    std::multimap<std::size_t, void*> cache_;     ///< free blocks by size
-    std::unordered_map<void*, std::size_t> live_;  ///< blocks in use and their sizes
+    std::multimap<std::size_t, Block> cache_;  ///< free blocks by size
+    std::unordered_map<void*, Live> live_;     ///< blocks in use, their sizes and pages
 };
 
 }  // namespace detail
@@ -268,7 +298,8 @@ private:
 /// While it lives, new large blocks mapped on this thread keep 4 KiB pages where their faults
 /// are cheap (Config::small_page_limit_ms). For arrays written once and read little, a
 /// builder's scratch and intermediate tree: there a huge page that the host must fault in again
-/// costs more than the array's whole use. Blocks reused from the cache keep their pages.
+/// costs more than the array's whole use. Blocks reused from the cache keep their pages, so a
+/// block kept in 4 KiB pages is handed out again only inside a scope (LargeBlocks::allocate).
 class SmallPagesWhereCheap {
 public:
     SmallPagesWhereCheap() { ++detail::small_pages_scopes(); }
