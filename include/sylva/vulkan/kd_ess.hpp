@@ -136,15 +136,17 @@ struct EssBoxPassTimings {
     double upload_ms = 0.0;    ///< parameters, visible buckets and listed blocks to the device
     double device_ms = 0.0;    ///< the dispatches on the device (timestamp queries), summed
     double dispatch_ms = 0.0;  ///< the dispatches on the host clock (record, submit, wait)
-    double readback_ms = 0.0;  ///< row masks back to the host
-    double fold_ms = 0.0;      ///< masks into block words (and rows the loop limiter cut, on the host)
+    double readback_ms = 0.0;  ///< the columns' masks back to the host
+    double fold_ms = 0.0;      ///< masks into block words (and columns the loop limiter cut, on the host)
     std::size_t cut_columns = 0;  ///< columns of 8 rows the device's loop limiter cut short (computed on the host)
     [[nodiscard]] double total_ms() const { return upload_ms + dispatch_ms + readback_ms + fold_ms; }
 };
 
 /// The ESS occupancy's block words of the listed blocks on the device, from a DeviceGrid and
 /// the grid words it was made from (kept by reference: they must outlive the pass; the host
-/// reads them only for rows the loop limiter cut). The Context and DeviceGrid must outlive it.
+/// reads their words only for columns the loop limiter cut, and their border at every pass:
+/// the border is a parameter, not part of the device grid). The Context and DeviceGrid must
+/// outlive it.
 class EssBoxPass {
 public:
     /// Throws sylva::Error when the device grid does not hold `g` (dimensions, format).
