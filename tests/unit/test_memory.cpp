@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <numeric>
 #include <sstream>
@@ -241,4 +242,91 @@ TEST_CASE("prefault faults a block in on the pool and caches it for the allocati
     CHECK(memory::stats().maps == s2.maps);
     CHECK(memory::stats().reuses == s2.reuses);
     memory::configure(keep);
+}
+
+TEST_CASE("a RunArena's runs grow in place, move when their slab is full and give back what they did not use",
+          "[memory]") {
+    memory::Config keep = memory::config();
+    memory::configure({.cache_bytes = std::size_t{64} << 20, .huge_pages = true});
+    memory::release_cache();
+    const std::size_t block = (std::size_t{1} << 20) / sizeof(std::uint64_t);  // one MiB of elements
+    memory::Stats s0 = memory::stats();
+    {
+        memory::RunArena<std::uint64_t> arena(block);
+        auto a = arena.open(100);
+        for (std::uint64_t k = 0; k < 10; ++k) a.emplace_back() = k;
+        CHECK(a.open());
+        arena.close(a);
+        CHECK_FALSE(a.open());
+        arena.close(a);  // a second close does nothing
+        auto b = arena.open(100);  // the same slab, right after a's ten elements
+        b.emplace_back() = 99;
+        CHECK(&b[0] == &a[0] + 10);
+        CHECK(b.emplace_back() == 0u);  // value-initialised
+        // b outgrows the slab: it moves to a new block, values kept, a untouched.
+        for (std::uint64_t k = 2; k < block + 5; ++k) b.emplace_back() = 1000 + k;
+        REQUIRE(b.size() == block + 5);
+        CHECK(b[0] == 99u);
+        CHECK(b[1] == 0u);
+        bool same = true;
+        for (std::uint64_t k = 2; k < block + 5; ++k) same = same && b[k] == 1000 + k;
+        CHECK(same);
+        for (std::uint64_t k = 0; k < 10; ++k) CHECK(a[k] == k);
+        arena.close(b);
+        CHECK(arena.blocks() == 2);
+        // The room b left in the first block, or the rest of b's new one, serves the next run
+        // without a new block.
+        auto c = arena.open(1000);
+        c.emplace_back() = 7;
+        CHECK((&c[0] == &a[0] + 10 || &c[0] == &b[0] + b.size()));
+        arena.close(c);
+        CHECK(arena.blocks() == 2);
+        CHECK(memory::stats().maps >= s0.maps + 1);
+    }
+    // The blocks went back to the cache, warm for the next build.
+    CHECK(memory::stats().cached_bytes >= s0.cached_bytes + (std::size_t{2} << 20));
+    memory::configure(keep);
+}
+
+TEST_CASE("a RunArena serves runs on several threads at once, each intact", "[memory][parallel]") {
+    ThreadPool pool(4);
+    memory::RunArena<std::uint32_t> arena(std::size_t{1} << 18);
+    constexpr std::size_t kRuns = 64;
+    std::vector<memory::RunArena<std::uint32_t>::Run> runs(kRuns);
+    pool.parallel_for(0, kRuns, 1, [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t r = lo; r < hi; ++r) {
+            runs[r] = arena.open(r % 3 == 0 ? 16 : 4096);  // some grow, some stay in their room
+            const std::size_t n = 1000 + 997 * r;
+            for (std::size_t k = 0; k < n; ++k) runs[r].emplace_back() = static_cast<std::uint32_t>(r * 100000 + k);
+            arena.close(runs[r]);
+        }
+    });
+    std::size_t wrong = 0;
+    std::vector<std::pair<const std::uint32_t*, const std::uint32_t*>> spans;
+    for (std::size_t r = 0; r < kRuns; ++r) {
+        const std::size_t n = 1000 + 997 * r;
+        REQUIRE(runs[r].size() == n);
+        for (std::size_t k = 0; k < n; ++k) wrong += runs[r][k] != r * 100000 + k;
+        spans.push_back({&runs[r][0], &runs[r][0] + n});
+    }
+    CHECK(wrong == 0);
+    std::sort(spans.begin(), spans.end());
+    for (std::size_t i = 1; i < spans.size(); ++i) CHECK(spans[i - 1].second <= spans[i].first);  // no overlap
+}
+
+TEST_CASE("a parallel BIH build keeps its chunks in an arena and gives the same tree as a serial one", "[memory][parallel]") {
+    auto spheres = testing::random_spheres(20000, 11);
+    std::span<const Sphere> ss(spheres);
+    SerialExecutor serial;
+    ThreadPool pool(2);
+    bih::Tree one = bih::build(ss, bih::Config{}, serial);
+    memory::Stats s0 = memory::stats();
+    bih::Tree two = bih::build(ss, bih::Config{}, pool);
+    memory::Stats s1 = memory::stats();
+    CHECK(s1.maps + s1.reuses > s0.maps + s0.reuses + 2);  // arena blocks besides records and nodes
+    REQUIRE(one.nodes.size() == two.nodes.size());
+    CHECK(std::equal(one.nodes.begin(), one.nodes.end(), two.nodes.begin(), [](const bih::Node& a, const bih::Node& b) {
+        return std::memcmp(&a, &b, sizeof(bih::Node)) == 0;
+    }));
+    CHECK(std::equal(one.order.begin(), one.order.end(), two.order.begin()));
 }

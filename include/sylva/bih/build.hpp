@@ -25,6 +25,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -178,6 +179,38 @@ inline std::size_t partition_in_place(Prim* a, std::size_t n, int axis, float cu
     return i;
 }
 
+/// The nodes of one chunk: in a build on one thread a LargeVector that becomes the tree's array;
+/// in a parallel build a run of the build's memory::RunArena (core/memory.hpp says why: most
+/// chunks are small, and as vectors each was a fresh mapping in 4 KiB pages).
+class ChunkNodes {
+public:
+    /// Starts empty with room for about `expected` nodes, in `arena` unless it is null.
+    void start(memory::RunArena<Node>* arena, std::size_t expected) {
+        arena_ = arena;
+        if (arena_)
+            run_ = arena_->open(expected);
+        else
+            vec_.reserve(expected);
+    }
+    Node& emplace_back() { return arena_ ? run_.emplace_back() : vec_.emplace_back(); }
+    Node& operator[](std::size_t i) { return arena_ ? run_[i] : vec_[i]; }
+    const Node& operator[](std::size_t i) const { return arena_ ? run_[i] : vec_[i]; }
+    [[nodiscard]] std::size_t size() const { return arena_ ? run_.size() : vec_.size(); }
+    /// No more nodes: an arena run gives back its unused room (before the chunk's task spawns
+    /// others, so that they find it).
+    void close() {
+        if (arena_) arena_->close(run_);
+    }
+    [[nodiscard]] bool in_arena() const { return arena_ != nullptr; }
+    /// The vector (empty for a chunk in an arena).
+    LargeVector<Node>& vector() { return vec_; }
+
+private:
+    memory::RunArena<Node>* arena_ = nullptr;
+    memory::RunArena<Node>::Run run_;
+    LargeVector<Node> vec_;
+};
+
 /// The nodes one build task made, in pre-order. The subtrees that parallel tasks built hang
 /// off it as sub-chunks; in the final array each follows the nodes this chunk had when the
 /// sub-chunk was attached (`at`), like the append of a serial build.
@@ -188,7 +221,7 @@ struct Chunk {
         std::size_t at = 0;      ///< nodes of this chunk that precede the sub-chunk
         std::unique_ptr<Chunk> sub;
     };
-    LargeVector<Node> nodes;
+    ChunkNodes nodes;
     std::vector<Link> links;
     std::size_t leaves = 0, single_child_nodes = 0;
     std::uint32_t max_depth = 0, max_leaf_elements = 0;
@@ -209,15 +242,18 @@ struct Chunk {
 template <Executor X>
 class SubtreeBuilder {
 public:
+    /// `arena` holds the chunks' nodes of a parallel build (null: each chunk a LargeVector).
     SubtreeBuilder(Prim* prims, std::uint32_t* order, std::uint8_t* side, const Config& cfg, X& exec,
-                   std::atomic<std::size_t>& placed, std::size_t total)
-        : p_(prims), order_(order), side_(side), cfg_(cfg), exec_(exec), placed_(placed), total_(total) {}
+                   std::atomic<std::size_t>& placed, std::size_t total, memory::RunArena<Node>* arena)
+        : p_(prims), order_(order), side_(side), cfg_(cfg), exec_(exec), placed_(placed), total_(total),
+          arena_(arena) {}
 
     /// Builds the subtree over records [begin, end) with box `box` at `depth` into `out`;
     /// writes the element order of its leaves into order[begin, end).
     void build(Chunk& out, std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
-        out.nodes.reserve(reserve_for(end - begin));
+        out.nodes.start(arena_, reserve_for(end - begin));
         node(out, begin, end, box, depth);
+        out.nodes.close();
     }
 
 private:
@@ -304,6 +340,7 @@ private:
             return;
         }
         auto left = std::make_unique<Chunk>(), right = std::make_unique<Chunk>();
+        out.nodes.close();  // a chunk ends where its tasks begin (nothing is appended after them)
         exec_.invoke([&] { build(*left, begin, s.mid, s.box[0], depth + 1); },
                      [&] { build(*right, s.mid, end, s.box[1], depth + 1); });
         out.links.push_back({self, 0, out.nodes.size(), std::move(left)});
@@ -446,6 +483,7 @@ private:
     X& exec_;
     std::atomic<std::size_t>& placed_;
     std::size_t total_;
+    memory::RunArena<Node>* arena_;
 };
 
 /// Sets the total size of every chunk and the final index of its first node (pre-order, each
@@ -491,8 +529,8 @@ void assemble(Chunk& root, Tree& t, X& exec) {
         throw Error("bih::build: " + std::to_string(total) + " nodes exceed 32-bit node indices");
     collect_stats(list, t.stats);
     t.stats.nodes = total;
-    if (list.size() == 1) {
-        t.nodes = std::move(root.nodes);
+    if (list.size() == 1 && !root.nodes.in_arena()) {
+        t.nodes = std::move(root.nodes.vector());
         return;
     }
     if (t.nodes.capacity() < total) {  // new pages: faulted on all threads, not in the resize
@@ -504,7 +542,7 @@ void assemble(Chunk& root, Tree& t, X& exec) {
     exec.parallel_for(0, list.size(), 1, [&](std::size_t lo, std::size_t hi) {
         for (std::size_t k = lo; k < hi; ++k) {
             copy_chunk(*list[k], out);
-            LargeVector<Node>().swap(list[k]->nodes);  // lowers the peak memory
+            LargeVector<Node>().swap(list[k]->nodes.vector());  // lowers the peak memory (arena runs: at the end)
         }
     });
 }
@@ -548,6 +586,16 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         memory::prefault<std::uint32_t>(elements.size(), exec);
     }
     t.order.resize(elements.size());
+    // A parallel build's chunks live in an arena of large blocks until they are assembled (the
+    // condition is SubtreeBuilder::children's for the root). Blocks of about 1/16 of the nodes
+    // expected (reserve_for's estimate), between 1 and 64 MiB.
+    std::optional<memory::RunArena<Node>> arena;
+    if (exec.concurrency() > 1 && elements.size() > cfg.parallel_threshold) {
+        const std::size_t n = elements.size();
+        const std::size_t expected = cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements;
+        arena.emplace(std::clamp<std::size_t>(expected / 16, memory::kLargeBlock / sizeof(Node),
+                                              (std::size_t{64} << 20) / sizeof(Node)));
+    }
     detail::Chunk root;
     {
         // Scratch from the large-block allocator: default-initialised (no zeroing pass), and
@@ -556,7 +604,8 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         memory::LargeBuffer<std::uint8_t> side(elements.size());
         t.bounds = detail::gather_prims(elements, prims.data(), exec);
         std::atomic<std::size_t> placed{0};
-        detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, elements.size());
+        detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, elements.size(),
+                                          arena ? &*arena : nullptr);
         builder.build(root, 0, elements.size(), t.bounds, 0);
     }
     detail::assemble(root, t, exec);
