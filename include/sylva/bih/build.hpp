@@ -586,15 +586,18 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         memory::prefault<std::uint32_t>(elements.size(), exec);
     }
     t.order.resize(elements.size());
-    // A parallel build's chunks live in an arena of large blocks until they are assembled (the
-    // condition is SubtreeBuilder::children's for the root). Blocks of about 1/16 of the nodes
-    // expected (reserve_for's estimate), between 1 and 64 MiB.
+    // A parallel build's chunks live in an arena until they are assembled (the condition is
+    // SubtreeBuilder::children's for the root). Blocks of about 1/16 of the nodes expected
+    // (reserve_for's estimate), between 1 and 64 MiB; one block where all of them fit in 1 MiB
+    // (small pages then: a fresh huge page costs as much as 2 MiB of them, mostly unused).
     std::optional<memory::RunArena<Node>> arena;
     if (exec.concurrency() > 1 && elements.size() > cfg.parallel_threshold) {
         const std::size_t n = elements.size();
-        const std::size_t expected = cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements;
-        arena.emplace(std::clamp<std::size_t>(expected / 16, memory::kLargeBlock / sizeof(Node),
-                                              (std::size_t{64} << 20) / sizeof(Node)));
+        const std::size_t expected = (cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements) + 64;
+        const std::size_t large = (memory::kLargeBlock + sizeof(Node) - 1) / sizeof(Node);
+        arena.emplace(expected <= large ? expected
+                                        : std::clamp<std::size_t>(expected / 16, large,
+                                                                  (std::size_t{64} << 20) / sizeof(Node)));
     }
     detail::Chunk root;
     {

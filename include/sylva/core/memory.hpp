@@ -425,12 +425,12 @@ public:
         std::size_t size_ = 0;
     };
 
-    /// Blocks of `block_elements` T (at least kLargeBlock bytes; more where one run asks for
-    /// more). Blocks mapped on other threads keep the page choice of a SmallPagesWhereCheap
-    /// scope open on the thread that made the arena.
+    /// Blocks of `block_elements` T (at least 64; more where one run asks for more), from
+    /// LargeAllocator: huge pages from kLargeBlock bytes on, operator new below (for arenas whose
+    /// whole content is smaller than a huge page). Blocks mapped on other threads keep the page
+    /// choice of a SmallPagesWhereCheap scope open on the thread that made the arena.
     explicit RunArena(std::size_t block_elements)
-        : block_(std::max(block_elements, (kLargeBlock + sizeof(T) - 1) / sizeof(T))),
-          scoped_(detail::small_pages_scopes() > 0) {}
+        : block_(std::max<std::size_t>(block_elements, 64)), scoped_(detail::small_pages_scopes() > 0) {}
     RunArena(const RunArena&) = delete;
     RunArena& operator=(const RunArena&) = delete;
     ~RunArena() {
