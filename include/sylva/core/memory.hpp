@@ -33,7 +33,8 @@
 // Small blocks use the ordinary aligned operator new.
 //
 // LargeVector<T> is a std::vector with this allocator; the BIH's nodes, element order and the
-// builder's scratch use it.
+// builder's scratch use it. RunArena<T> carves many growing arrays from its blocks (a parallel
+// BIH build's subtree chunks).
 #ifndef SYLVA_CORE_MEMORY_HPP
 #define SYLVA_CORE_MEMORY_HPP
 
