@@ -6,6 +6,7 @@
 #include <fstream>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -274,6 +275,9 @@ TEST_CASE("a RunArena's runs grow in place, move when their slab is full and giv
         for (std::uint64_t k = 0; k < 10; ++k) CHECK(a[k] == k);
         arena.close(b);
         CHECK(arena.blocks() == 2);
+        CHECK_THROWS_AS(b.emplace_back(), std::logic_error);  // closed: no more appends
+        memory::RunArena<std::uint64_t>::Run never;
+        CHECK_THROWS_AS(never.emplace_back(), std::logic_error);
         // The room b left in the first block, or the rest of b's new one, serves the next run
         // without a new block.
         auto c = arena.open(1000);

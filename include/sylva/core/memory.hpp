@@ -46,6 +46,7 @@
 #include <mutex>
 #include <new>
 #include <optional>
+#include <stdexcept>
 #include <type_traits>
 #include <unordered_map>
 #include <vector>
@@ -414,6 +415,7 @@ public:
     private:
         friend class RunArena;
         void grow() {
+            if (!arena_) throw std::logic_error("memory::RunArena: append to a run that is closed or was never opened");
             Slab bigger = arena_->take(std::max<std::size_t>(2 * size_, 64));
             if (size_) std::copy(data_, data_ + size_, bigger.top);
             arena_->give_back(Slab{data_, end_});  // the old run's room is free again
