@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -285,6 +286,16 @@ TEST_CASE("a RunArena's runs grow in place, move when their slab is full and giv
         CHECK((&c[0] == &a[0] + 10 || &c[0] == &b[0] + b.size()));
         arena.close(c);
         CHECK(arena.blocks() == 2);
+        static_assert(!std::is_copy_constructible_v<memory::RunArena<std::uint64_t>::Run>);
+        auto d = arena.open(10);
+        d.emplace_back() = 5;
+        auto e = std::move(d);  // the run moves; the source is empty and closed
+        CHECK(e.size() == 1);
+        CHECK(e[0] == 5u);
+        CHECK(d.size() == 0);
+        CHECK_FALSE(d.open());
+        CHECK_THROWS_AS(d.emplace_back(), std::logic_error);
+        arena.close(e);
         CHECK(memory::stats().maps >= s0.maps + 1);
     }
     // The blocks went back to the cache, warm for the next build.

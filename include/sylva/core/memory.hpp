@@ -401,6 +401,21 @@ public:
     class Run {
     public:
         Run() = default;
+        /// Move-only: two copies of an open run would append to the same slab. A moved-from run
+        /// is empty and closed.
+        Run(Run&& o) noexcept : arena_(o.arena_), data_(o.data_), end_(o.end_), size_(o.size_) { o.reset(); }
+        Run& operator=(Run&& o) noexcept {
+            if (this != &o) {
+                arena_ = o.arena_;
+                data_ = o.data_;
+                end_ = o.end_;
+                size_ = o.size_;
+                o.reset();
+            }
+            return *this;
+        }
+        Run(const Run&) = delete;
+        Run& operator=(const Run&) = delete;
         /// Appends a value-initialised T and returns it (references stay valid until the next
         /// append that needs more room than the slab has).
         T& emplace_back() {
@@ -414,6 +429,11 @@ public:
 
     private:
         friend class RunArena;
+        void reset() {
+            arena_ = nullptr;
+            data_ = end_ = nullptr;
+            size_ = 0;
+        }
         void grow() {
             if (!arena_) throw std::logic_error("memory::RunArena: append to a run that is closed or was never opened");
             Slab bigger = arena_->take(std::max<std::size_t>(2 * size_, 64));
