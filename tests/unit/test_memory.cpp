@@ -345,3 +345,28 @@ TEST_CASE("a parallel BIH build keeps its chunks in an arena and gives the same 
     }));
     CHECK(std::equal(one.order.begin(), one.order.end(), two.order.begin()));
 }
+
+TEST_CASE("a RunOrVector appends and indexes alike as a LargeVector and as an arena run", "[memory]") {
+    memory::RunArena<std::uint32_t> arena(std::size_t{1} << 12);
+    memory::RunOrVector<std::uint32_t> in_vector, in_arena;
+    in_vector.start(nullptr, 8);
+    in_arena.start(&arena, 8);
+    CHECK_FALSE(in_vector.in_arena());
+    CHECK(in_arena.in_arena());
+    for (std::uint32_t k = 0; k < 10000; ++k) {  // both grow past their first room
+        in_vector.push_back(3 * k);
+        in_arena.emplace_back() = 3 * k;
+    }
+    in_arena[5] = 1;
+    in_vector[5] = 1;
+    in_vector.close();
+    in_arena.close();
+    REQUIRE(in_vector.size() == 10000);
+    REQUIRE(in_arena.size() == 10000);
+    bool same = true;
+    for (std::uint32_t k = 0; k < 10000; ++k) same = same && in_vector[k] == in_arena[k] && in_arena[k] == (k == 5 ? 1 : 3 * k);
+    CHECK(same);
+    CHECK(in_vector.vector().size() == 10000);  // the vector is the array itself
+    CHECK(in_arena.vector().empty());
+    CHECK(arena.blocks() >= 2);  // 10,000 elements outgrew the 4,096 of the first block
+}

@@ -182,34 +182,7 @@ inline std::size_t partition_in_place(Prim* a, std::size_t n, int axis, float cu
 /// The nodes of one chunk: in a build on one thread a LargeVector that becomes the tree's array;
 /// in a parallel build a run of the build's memory::RunArena (core/memory.hpp says why: most
 /// chunks are small, and as vectors each was a fresh mapping in 4 KiB pages).
-class ChunkNodes {
-public:
-    /// Starts empty with room for about `expected` nodes, in `arena` unless it is null.
-    void start(memory::RunArena<Node>* arena, std::size_t expected) {
-        arena_ = arena;
-        if (arena_)
-            run_ = arena_->open(expected);
-        else
-            vec_.reserve(expected);
-    }
-    Node& emplace_back() { return arena_ ? run_.emplace_back() : vec_.emplace_back(); }
-    Node& operator[](std::size_t i) { return arena_ ? run_[i] : vec_[i]; }
-    const Node& operator[](std::size_t i) const { return arena_ ? run_[i] : vec_[i]; }
-    [[nodiscard]] std::size_t size() const { return arena_ ? run_.size() : vec_.size(); }
-    /// No more nodes: an arena run gives back its unused room (before the chunk's task spawns
-    /// others, so that they find it).
-    void close() {
-        if (arena_) arena_->close(run_);
-    }
-    [[nodiscard]] bool in_arena() const { return arena_ != nullptr; }
-    /// The vector (empty for a chunk in an arena).
-    LargeVector<Node>& vector() { return vec_; }
-
-private:
-    memory::RunArena<Node>* arena_ = nullptr;
-    memory::RunArena<Node>::Run run_;
-    LargeVector<Node> vec_;
-};
+using ChunkNodes = memory::RunOrVector<Node>;
 
 /// The nodes one build task made, in pre-order. The subtrees that parallel tasks built hang
 /// off it as sub-chunks; in the final array each follows the nodes this chunk had when the

@@ -540,6 +540,40 @@ private:
     std::vector<Slab> free_;
 };
 
+/// A growing array that is either a LargeVector (a build on one thread: it can become the
+/// result as it is) or a run of a RunArena (a parallel build: see RunArena for why). Its users
+/// append, index and read the size the same way in both cases; start() picks which.
+template <class T>
+class RunOrVector {
+public:
+    /// Starts empty with room for about `expected` elements, in `arena` unless it is null.
+    void start(RunArena<T>* arena, std::size_t expected) {
+        arena_ = arena;
+        if (arena_)
+            run_ = arena_->open(expected);
+        else
+            vec_.reserve(expected);
+    }
+    T& emplace_back() { return arena_ ? run_.emplace_back() : vec_.emplace_back(); }
+    void push_back(const T& v) { emplace_back() = v; }
+    T& operator[](std::size_t i) { return arena_ ? run_[i] : vec_[i]; }
+    const T& operator[](std::size_t i) const { return arena_ ? run_[i] : vec_[i]; }
+    [[nodiscard]] std::size_t size() const { return arena_ ? run_.size() : vec_.size(); }
+    /// No more elements: an arena run gives back its unused room (so that runs opened after
+    /// this, on any thread, find it).
+    void close() {
+        if (arena_) arena_->close(run_);
+    }
+    [[nodiscard]] bool in_arena() const { return arena_ != nullptr; }
+    /// The vector (empty for an array in an arena).
+    std::vector<T, LargeAllocator<T>>& vector() { return vec_; }
+
+private:
+    RunArena<T>* arena_ = nullptr;
+    typename RunArena<T>::Run run_;
+    std::vector<T, LargeAllocator<T>> vec_;
+};
+
 /// Faults in the pages of the large block that the next LargeAllocator<T> allocation of n
 /// elements will get, one write a 4 KiB page spread over the executor's threads, and hands the
 /// block back to the cache, where that allocation (the same size: the best fit) finds it. For
