@@ -181,6 +181,36 @@ TEST_CASE("large blocks are 2 MiB aligned, cached on free and reused warm", "[me
     memory::configure(keep);
 }
 
+TEST_CASE("blocks of 64 KiB to 1 MiB are mapped in 4 KiB pages, cached on free and reused warm", "[memory]") {
+    memory::Config keep = memory::config();
+    memory::configure({.cache_bytes = std::size_t{64} << 20, .huge_pages = true});
+    memory::release_cache();
+    memory::Stats s0 = memory::stats();
+    const void* first = nullptr;
+    {
+        LargeVector<std::uint8_t> a(200000, 3);  // 200 KB: a block of 256 KiB
+        first = a.data();
+        CHECK(address(a.data()) % 4096 == 0);
+    }
+    memory::Stats s1 = memory::stats();
+    CHECK(s1.maps == s0.maps + 1);
+    CHECK(s1.cached_bytes == std::size_t{256} << 10);
+    {
+        LargeVector<std::uint8_t> b(150000);  // fits the cached block (at most twice its size)
+        CHECK(b.data() == first);
+        CHECK(b[149999] == 0u);
+        LargeVector<std::uint8_t> c(60000);  // under 64 KiB: operator new's
+        CHECK(c.data() != first);
+        memory::Stats s2 = memory::stats();
+        CHECK(s2.reuses == s1.reuses + 1);
+        CHECK(s2.maps == s1.maps);
+        CHECK(s2.cached_bytes == 0);
+    }
+    memory::configure({.cache_bytes = 0, .huge_pages = true});  // gives them back
+    CHECK(memory::stats().cached_bytes == 0);
+    memory::configure(keep);
+}
+
 TEST_CASE("small blocks come from operator new, 64-byte aligned; buffers do not zero", "[memory]") {
     LargeVector<char> small(100, 'x');
     CHECK(address(small.data()) % 64 == 0);

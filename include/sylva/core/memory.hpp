@@ -30,7 +30,8 @@
 //      Config::cache_bytes) and the next large allocation of a similar size reuses one, whose
 //      pages are already faulted in. So rebuilding a tree of the same size every frame touches
 //      warm memory, as a builder object that keeps its vectors would, but for every builder.
-// Small blocks use the ordinary aligned operator new.
+// Blocks of kCachedBlock (64 KiB) up to kLargeBlock are mapped in 4 KiB pages and cached the same
+// way; smaller ones use the ordinary aligned operator new.
 //
 // LargeVector<T> is a std::vector with this allocator; the BIH's nodes, element order and the
 // builder's scratch use it. RunArena<T> carves many growing arrays from its blocks (a parallel
@@ -68,10 +69,20 @@ namespace sylva::memory {
 /// The huge page size on x86-64 and most AArch64 Linux kernels.
 inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 
-/// Blocks of at least this many bytes are mapped directly (huge pages, cached on free); smaller
-/// ones use operator new. 1 MiB: below it, one huge page would be mostly unused. A constant, so
-/// a block is freed the way it was allocated whatever the settings do meanwhile.
+/// Blocks of at least this many bytes are mapped 2 MiB-aligned (huge pages where advised) and
+/// cached on free. 1 MiB: below it, one huge page would be mostly unused. A constant, so a
+/// block is freed the way it was allocated whatever the settings do meanwhile.
 inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
+
+/// Blocks from this many bytes up to kLargeBlock are mapped in 4 KiB pages (in multiples of
+/// it) and cached on free as well; smaller ones use operator new. Why: a build over 10^4-10^5
+/// elements has arrays of 64 KiB-1 MiB (the BIH's scratch, the WideTree's facts, nodes and
+/// leaf records), and glibc maps each above 128 KiB afresh and unmaps it when freed, or takes
+/// it from a heap whose top it gives back: on a VM where a 4 KiB fault costs ~10 us, 40-100
+/// faults a WideTree collapse at 10^4 spheres in steady state and ~400 in a fresh process
+/// (a collapse there takes 0.4-3 ms). From the cache the collapse reuses what the build just
+/// freed. A constant, like kLargeBlock.
+inline constexpr std::size_t kCachedBlock = std::size_t{64} << 10;
 
 /// The default Config::cache_bytes: 4 GiB, at most a quarter of the physical memory.
 inline std::size_t default_cache_bytes() {
@@ -146,9 +157,10 @@ public:
         trim_locked(0);
     }
 
-    /// A block of at least `bytes` (a multiple of kHugePage, 2 MiB-aligned where mapped).
+    /// A block of at least `bytes`: from kLargeBlock on a multiple of kHugePage, 2 MiB-aligned
+    /// where mapped; below it a multiple of kCachedBlock in 4 KiB pages.
     void* allocate(std::size_t bytes) {
-        const std::size_t size = round_up(bytes);
+        const std::size_t size = bytes < kLargeBlock ? round_up_small(bytes) : round_up(bytes);
         const bool scoped = small_pages_scopes() > 0;
         {
             std::lock_guard lock(mutex_);
@@ -203,7 +215,12 @@ private:
     /// only blocks in huge pages qualify (the arrays queries walk: a block kept in 4 KiB pages
     /// would cost them TLB reach for as long as it lives); inside one, blocks in 4 KiB pages
     /// come first and huge-page blocks after them.
+    /// A block under kLargeBlock takes the best fit whatever its pages (no TLB reach to keep).
     std::multimap<std::size_t, Block>::iterator reusable_locked(std::size_t size, bool scoped) {
+        if (size < kLargeBlock) {
+            auto it = cache_.lower_bound(size);
+            return it != cache_.end() && it->first <= 2 * size ? it : cache_.end();
+        }
         auto huge = cache_.end();
         for (auto it = cache_.lower_bound(size); it != cache_.end() && it->first <= 2 * size; ++it) {
             if (it->second.small) {
@@ -221,9 +238,19 @@ private:
         return (std::max<std::size_t>(bytes, 1) + kHugePage - 1) / kHugePage * kHugePage;
     }
 
-    /// Maps `size` bytes aligned to kHugePage (maps size + 2 MiB, unmaps the slop).
+    static std::size_t round_up_small(std::size_t bytes) {
+        return (std::max<std::size_t>(bytes, 1) + kCachedBlock - 1) / kCachedBlock * kCachedBlock;
+    }
+
+    /// Maps `size` bytes aligned to kHugePage (maps size + 2 MiB, unmaps the slop); under
+    /// kLargeBlock, page-aligned in 4 KiB pages, no advice.
     Block map(std::size_t size) {
 #if SYLVA_MEMORY_MMAP
+        if (size < kLargeBlock) {
+            void* small = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+            if (small == MAP_FAILED) throw std::bad_alloc();
+            return {small, true};
+        }
         void* raw = ::mmap(nullptr, size + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
         if (raw == MAP_FAILED) throw std::bad_alloc();
         auto base = reinterpret_cast<std::uintptr_t>(raw);
@@ -320,8 +347,9 @@ inline Stats stats() { return detail::LargeBlocks::instance().stats(); }
 /// Gives every cached block back to the system (e.g. after the last build of a session).
 inline void release_cache() { detail::LargeBlocks::instance().release_cache(); }
 
-/// A std allocator: large blocks from the cache / huge-page mappings above, small ones from
-/// aligned operator new (64-byte alignment: whole cache lines for SIMD node loads).
+/// A std allocator: blocks from kCachedBlock bytes on from the cache / mappings above (huge
+/// pages from kLargeBlock on), small ones from aligned operator new (64-byte alignment: whole
+/// cache lines for SIMD node loads).
 template <class T>
 struct LargeAllocator {
     using value_type = T;
@@ -334,13 +362,13 @@ struct LargeAllocator {
     T* allocate(std::size_t n) {
         if (n > SIZE_MAX / sizeof(T)) throw std::bad_alloc();
         std::size_t bytes = n * sizeof(T);
-        if (bytes >= kLargeBlock)
+        if (bytes >= kCachedBlock)
             return static_cast<T*>(detail::LargeBlocks::instance().allocate(bytes));
         return static_cast<T*>(::operator new(bytes, std::align_val_t{kAlign}));
     }
     void deallocate(T* p, std::size_t n) noexcept {
         std::size_t bytes = n * sizeof(T);
-        if (bytes >= kLargeBlock) detail::LargeBlocks::instance().deallocate(p);
+        if (bytes >= kCachedBlock) detail::LargeBlocks::instance().deallocate(p);
         else ::operator delete(p, std::align_val_t{kAlign});
     }
     template <class U>
@@ -449,8 +477,8 @@ public:
     };
 
     /// Blocks of `block_elements` T (at least 64; more where one run asks for more), from
-    /// LargeAllocator: huge pages from kLargeBlock bytes on, operator new below (for arenas whose
-    /// whole content is smaller than a huge page). Blocks mapped on other threads keep the page
+    /// LargeAllocator: huge pages from kLargeBlock bytes on, cached 4 KiB-page blocks below (for
+    /// arenas whose whole content is smaller than a huge page). Blocks mapped on other threads keep the page
     /// choice of a SmallPagesWhereCheap scope open on the thread that made the arena.
     explicit RunArena(std::size_t block_elements)
         : block_(std::max<std::size_t>(block_elements, 64)), scoped_(detail::small_pages_scopes() > 0) {}
