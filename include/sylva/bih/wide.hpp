@@ -241,7 +241,7 @@ public:
                 throw Error("bih::WideTree: the tree's order refers to element " + std::to_string(e) + " of the " +
                             std::to_string(elements.size()) + " given");
         if (tree.nodes.empty() || tree.order.empty()) return;
-        Builder b{*this, tree, elements, cfg.leaf_size(tree.order.size()), {}, {}, {}, 0, {}};
+        Builder b{*this, tree, elements, cfg.leaf_size(tree.order.size()), {}, {}, 0, {}};
         b.refit(exec);
         b.make(exec);
         b.fill(exec);
@@ -553,11 +553,7 @@ private:
         struct LeafJob {
             std::uint32_t record, first, count;
         };
-        /// In a parallel collapse the parts' jobs are gathered in a run of job_arena (warm
-        /// blocks from LargeAllocator's cache, as the parts' nodes: at 10^5 spheres a 420 KB
-        /// vector was ~100 fresh 4 KiB pages every time); otherwise the top part's vector.
-        std::optional<memory::RunArena<LeafJob>> job_arena;
-        memory::RunOrVector<LeafJob> jobs;
+        LargeVector<LeafJob> jobs;  ///< from 64 KiB (~5,500 leaves) a warm block of LargeAllocator's cache
         std::uint32_t records = 0;  ///< records (sphere packets or elements) handed out so far
 
         /// Spheres in the tree's order (sorted[k] = elements[order[k]]): gathered once, in
@@ -756,7 +752,7 @@ private:
             top.nodes.close();
             if (top.deferred.empty() && !top.nodes.in_arena()) {  // all of it: taken as it is, not copied
                 out.nodes_ = std::move(top.nodes.vector());
-                jobs.vector() = std::move(top.jobs);
+                jobs = std::move(top.jobs);
                 records = top.records;
                 out.stats_.depth = top.depth;
                 out.stats_.leaves = top.leaves;
@@ -781,9 +777,8 @@ private:
             out.nodes_.reserve(nodes);
             {
                 memory::SmallPagesWhereCheap scratch;  // written once, read once by fill()
-                job_arena.emplace(std::max<std::size_t>(leaves, memory::kLargeBlock / sizeof(LeafJob)));
+                jobs.reserve(leaves);
             }
-            jobs.start(&*job_arena, leaves);
             append(top);
             for (std::size_t k = 0; k < parts.size(); ++k) {
                 const typename Part::Deferred& d = top.deferred[k];
@@ -940,14 +935,12 @@ private:
                 (void)exec;
                 out.records_.reserve(records);
                 out.ids_.reserve(records);
-                for (std::size_t j = 0; j < jobs.size(); ++j) {
-                    const LeafJob& job = jobs[j];
+                for (const LeafJob& job : jobs)
                     for (std::uint32_t k = 0; k < job.count; ++k) {
                         std::uint32_t id = tree.order[job.first + k];
                         out.ids_.push_back(id);
                         out.records_.push_back(elements[id]);
                     }
-                }
             }
         }
     };
