@@ -79,7 +79,7 @@ inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
 /// elements has arrays of 64 KiB-1 MiB (the BIH's scratch, the WideTree's facts, nodes and
 /// leaf records), and glibc maps each above 128 KiB afresh and unmaps it when freed, or takes
 /// it from a heap whose top it gives back: on a VM where a 4 KiB fault costs ~10 us, 40-100
-/// faults a WideTree collapse at 10^4 spheres in steady state and ~400 in a fresh process
+/// faults a WideTree collapse at 10^4 spheres in steady state and ~200 in a fresh process
 /// (a collapse there takes 0.4-3 ms). From the cache the collapse reuses what the build just
 /// freed. A constant, like kLargeBlock.
 inline constexpr std::size_t kCachedBlock = std::size_t{64} << 10;
