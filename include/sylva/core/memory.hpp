@@ -583,7 +583,11 @@ public:
             vec_.reserve(expected);
     }
     T& emplace_back() { return arena_ ? run_.emplace_back() : vec_.emplace_back(); }
-    void push_back(const T& v) { emplace_back() = v; }
+    /// Appends a copy of v (taken first: v may be an element of this array, which can move).
+    void push_back(const T& v) {
+        const T copy = v;
+        emplace_back() = copy;
+    }
     T& operator[](std::size_t i) { return arena_ ? run_[i] : vec_[i]; }
     const T& operator[](std::size_t i) const { return arena_ ? run_[i] : vec_[i]; }
     [[nodiscard]] std::size_t size() const { return arena_ ? run_.size() : vec_.size(); }
