@@ -394,7 +394,8 @@ TEST_CASE("a RunOrVector appends and indexes alike as a LargeVector and as an ar
     REQUIRE(in_vector.size() == 10000);
     REQUIRE(in_arena.size() == 10000);
     bool same = true;
-    for (std::uint32_t k = 0; k < 10000; ++k) same = same && in_vector[k] == in_arena[k] && in_arena[k] == (k == 5 ? 1 : 3 * k);
+    for (std::uint32_t k = 0; k < 10000; ++k)
+        same = same && in_vector[k] == in_arena[k] && in_arena[k] == (k == 5 ? 1 : 3 * k);
     CHECK(same);
     CHECK(in_vector.vector().size() == 10000);  // the vector is the array itself
     CHECK(in_arena.vector().empty());

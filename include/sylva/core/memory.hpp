@@ -50,6 +50,7 @@
 #include <stdexcept>
 #include <type_traits>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "sylva/core/executor.hpp"
@@ -78,7 +79,7 @@ inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
 /// it) and cached on free as well; smaller ones use operator new. Why: a build over 10^4-10^5
 /// elements has arrays of 64 KiB-1 MiB (the BIH's scratch, the WideTree's facts, nodes and
 /// leaf records), and glibc maps each above 128 KiB afresh and unmaps it when freed, or takes
-/// it from a heap whose top it gives back: on a VM where a 4 KiB fault costs ~10 us, 40-100
+/// it from a heap whose top it gives back: on a VM where a 4 KiB fault costs ~10 us, 40-120
 /// faults a WideTree collapse at 10^4 spheres in steady state and ~200 in a fresh process
 /// (a collapse there takes 0.4-3 ms). From the cache the collapse reuses what the build just
 /// freed. A constant, like kLargeBlock.
@@ -431,7 +432,7 @@ public:
         Run() = default;
         /// Move-only: two copies of an open run would append to the same slab. A moved-from run
         /// is empty and closed.
-        Run(Run&& o) noexcept : arena_(o.arena_), data_(o.data_), end_(o.end_), size_(o.size_) { o.reset(); }
+        Run(Run&& o) noexcept { *this = std::move(o); }
         Run& operator=(Run&& o) noexcept {
             if (this != &o) {
                 arena_ = o.arena_;
