@@ -223,6 +223,44 @@ TEST_CASE("the builder makes the same trees as the reference implementation (gol
     }
 }
 
+TEST_CASE("a parallel build's chunks move into place in the tree's array, or are copied where their regions overflow: the same trees",
+          "[bih][build][parallel]") {
+    // The golden trees again, built with the node regions at other rates: none (every chunk in
+    // the arena), tiny (every region spills), near the nodes actually made (chunks move up as
+    // well as down, and some builds must fall back to the copy) and the default.
+    using bih::detail::Assembly;
+    using bih::detail::RegionRate;
+    const std::uint64_t want[3][5] = {
+        {0xb385c981be564f0full, 0x68446ba804f1cac6ull, 0xe9ed0bb833465069ull, 0x2775ec56764c7ec7ull, 0x5d2a67f98f53e435ull},
+        {0xa1ebfb8263122562ull, 0xb8c2313e3f0e16e8ull, 0xb3ef7cdd8f56bd1eull, 0x98d5973bf9d975e4ull, 0x29e98ceca135b688ull},
+        {0x8a9ad69c5a7a4329ull, 0x89fc734e40eb5246ull, 0x72a1ede4a016e658ull, 0x65c0ea1248404f9bull, 0x013db559a57d33c7ull},
+    };
+    ThreadPool pool(2);
+    std::size_t in_place = 0, copied = 0;
+    for (int kind = 0; kind < 3; ++kind) {
+        auto elems = golden_boxes(kind, kind == 2 ? 3001 : 20000);
+        std::span<const BoxElement> es(elems);
+        std::vector<bih::Config> configs = golden_configs();
+        for (std::size_t c = 0; c < configs.size(); ++c) {
+            configs[c].parallel_threshold = 500;
+            for (RegionRate rate : {RegionRate{0, 1}, RegionRate{1, 100}, RegionRate{19, 4}, RegionRate{49, 10},
+                                    RegionRate{5, 1}, RegionRate::for_config(configs[c])}) {
+                INFO("set " << kind << ", config " << c << ", rate " << rate.num << "/" << rate.den);
+                bih::Tree t;
+                t.nodes.assign(7, bih::Node{});  // a rebuild: what was there goes
+                Assembly how = Assembly::Whole;
+                bih::detail::build_into(t, es, configs[c], pool, rate, &how);
+                CHECK(fingerprint(t) == want[kind][c]);
+                CHECK(how != Assembly::Whole);
+                (how == Assembly::InPlace ? in_place : copied) += 1;
+                if (rate.num == RegionRate::for_config(configs[c]).num && kind < 2) CHECK(how == Assembly::InPlace);
+            }
+        }
+    }
+    CHECK(in_place >= 20);
+    CHECK(copied >= 20);
+}
+
 TEST_CASE("Config::for_queries: leaves of up to 32 elements, no trim chains", "[bih][build]") {
     auto elems = testing::random_boxes(20000, 26);
     bih::Config cfg = bih::Config::for_queries();

@@ -13,8 +13,9 @@
 // terminates and the iterator's stack can never overflow.
 //
 // Parallel builds hand subtrees to executor tasks that write their nodes into chunks of their
-// own; one parallel pass then copies the chunks into the pre-order node array. The tree (nodes,
-// planes, order, statistics) is the same whatever the executor, bit for bit.
+// own: the serial ones (nearly all nodes) into regions of the tree's node array, the others into
+// an arena; one pass then moves the chunks into pre-order in that array (RegionRate, assemble).
+// The tree (nodes, planes, order, statistics) is the same whatever the executor, bit for bit.
 #ifndef SYLVA_BIH_BUILD_HPP
 #define SYLVA_BIH_BUILD_HPP
 
@@ -25,6 +26,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <new>
 #include <optional>
 #include <span>
 #include <string>
@@ -179,10 +181,83 @@ inline std::size_t partition_in_place(Prim* a, std::size_t n, int axis, float cu
     return i;
 }
 
-/// The nodes of one chunk: in a build on one thread a LargeVector that becomes the tree's array;
-/// in a parallel build a run of the build's memory::RunArena (core/memory.hpp says why: most
-/// chunks are small, and as vectors each was a fresh mapping in 4 KiB pages).
-using ChunkNodes = memory::RunOrVector<Node>;
+/// Where a parallel build writes the nodes of its serial chunks: a region of the tree's own
+/// node array per chunk, at a fixed rate of slots per element, so that those nodes (nearly all
+/// of them) are written once and then moved down into pre-order in place, instead of being
+/// written into scratch and copied into a second array. Why: on a new VM every page the build
+/// touches first costs (README, "Cold and steady state"); the scratch copy was a third of the
+/// default tree's 350 MB at 10^6 spheres. A chunk over elements [b, e) gets slots
+/// [offset(b), offset(e)), after kHead slots for the nodes that precede the first one in
+/// pre-order (those of the chunks whose tasks fork: one chain of them per level). Rates (slots
+/// an element, `num / den`), for sylva-bench's spheres, uniform and clustered, 10^5 and 10^6:
+/// trimmed leaves, EmptyChildren::TrimBoth 21/4 = 5.25 (measured 4.92 an element, per chunk
+/// 4.92-5.27), Infinite 13/2 (measured 6.00-6.01); untrimmed leaves 16/5 a leaf's worth = 3.2 /
+/// max_leaf_elements (measured 2.86-2.92 / leaf size over all, up to 5.1 in a clustered chunk).
+/// A chunk that needs more slots spills into the arena (ChunkNodes).
+struct RegionRate {
+    static constexpr std::size_t kHead = 256;
+    std::uint64_t num = 0, den = 1;  ///< num == 0: no regions
+    [[nodiscard]] static RegionRate for_config(const Config& cfg) {
+        if (!cfg.trim_leaves) return RegionRate{16, 5ull * cfg.max_leaf_elements};
+        return cfg.empty_children == EmptyChildren::TrimBoth ? RegionRate{21, 4} : RegionRate{13, 2};
+    }
+    [[nodiscard]] std::size_t offset(std::size_t element) const {
+        return kHead + static_cast<std::size_t>(static_cast<std::uint64_t>(element) * num / den);
+    }
+};
+
+/// The nodes of one chunk. In a build on one thread a LargeVector that becomes the tree's array;
+/// in a parallel build a serial chunk's region of the tree's array (RegionRate) until it fills
+/// up, else a run of the build's memory::RunArena (core/memory.hpp says why: most chunks are
+/// small, and as vectors each was a fresh mapping in 4 KiB pages). Indices stay valid when a
+/// region spills into a run; references to nodes last until the next append.
+class ChunkNodes {
+public:
+    /// Starts empty with room for about `expected` nodes, in `arena` unless it is null.
+    void start(memory::RunArena<Node>* arena, std::size_t expected) {
+        region_ = nullptr;
+        nodes_.start(arena, expected);
+    }
+    /// Starts empty in `room` slots at `region`, which is index `at` of the tree's array; a
+    /// region that fills up moves into a run of `arena`.
+    void start_region(Node* region, std::size_t room, std::size_t at, memory::RunArena<Node>* arena) {
+        region_ = region;
+        room_ = room;
+        at_ = at;
+        size_ = 0;
+        arena_ = arena;
+    }
+    Node& emplace_back() {
+        if (region_) {
+            if (size_ < room_) return *::new (static_cast<void*>(region_ + size_++)) Node();
+            spill();
+        }
+        return nodes_.emplace_back();
+    }
+    Node& operator[](std::size_t i) { return region_ ? region_[i] : nodes_[i]; }
+    const Node& operator[](std::size_t i) const { return region_ ? region_[i] : nodes_[i]; }
+    [[nodiscard]] std::size_t size() const { return region_ ? size_ : nodes_.size(); }
+    void close() {
+        if (!region_) nodes_.close();
+    }
+    /// Whether the nodes are in a region of the tree's array, and at which index it starts.
+    [[nodiscard]] bool in_region() const { return region_ != nullptr; }
+    [[nodiscard]] std::size_t region_at() const { return at_; }
+    /// Whether the nodes are a LargeVector that can become the tree's array as it is.
+    [[nodiscard]] bool is_vector() const { return !region_ && !nodes_.in_arena(); }
+    LargeVector<Node>& vector() { return nodes_.vector(); }
+
+private:
+    [[gnu::noinline]] void spill() {
+        nodes_.start(arena_, 2 * size_ + 64);
+        for (std::size_t i = 0; i < size_; ++i) nodes_.emplace_back() = region_[i];
+        region_ = nullptr;
+    }
+    Node* region_ = nullptr;
+    std::size_t room_ = 0, at_ = 0, size_ = 0;
+    memory::RunArena<Node>* arena_ = nullptr;
+    memory::RunOrVector<Node> nodes_;
+};
 
 /// The nodes one build task made, in pre-order. The subtrees that parallel tasks built hang
 /// off it as sub-chunks; in the final array each follows the nodes this chunk had when the
@@ -215,16 +290,24 @@ struct Chunk {
 template <Executor X>
 class SubtreeBuilder {
 public:
-    /// `arena` holds the chunks' nodes of a parallel build (null: each chunk a LargeVector).
+    /// `arena` holds the chunks' nodes of a parallel build (null: each chunk a LargeVector);
+    /// `regions`, where not null, is the tree's node array, in which serial chunks get regions
+    /// at `rate` (RegionRate).
     SubtreeBuilder(Prim* prims, std::uint32_t* order, std::uint8_t* side, const Config& cfg, X& exec,
-                   std::atomic<std::size_t>& placed, std::size_t total, memory::RunArena<Node>* arena)
+                   std::atomic<std::size_t>& placed, std::size_t total, memory::RunArena<Node>* arena,
+                   Node* regions = nullptr, RegionRate rate = {})
         : p_(prims), order_(order), side_(side), cfg_(cfg), exec_(exec), placed_(placed), total_(total),
-          arena_(arena) {}
+          arena_(arena), regions_(regions), rate_(rate) {}
 
     /// Builds the subtree over records [begin, end) with box `box` at `depth` into `out`;
     /// writes the element order of its leaves into order[begin, end).
     void build(Chunk& out, std::size_t begin, std::size_t end, const Aabb& box, std::uint32_t depth) {
-        out.nodes.start(arena_, reserve_for(end - begin));
+        if (regions_ && end - begin <= cfg_.parallel_threshold) {  // a serial chunk (children())
+            const std::size_t lo = rate_.offset(begin), hi = rate_.offset(end);
+            out.nodes.start_region(regions_ + lo, hi - lo, lo, arena_);
+        } else {
+            out.nodes.start(arena_, reserve_for(end - begin));
+        }
         node(out, begin, end, box, depth);
         out.nodes.close();
     }
@@ -457,6 +540,8 @@ private:
     std::atomic<std::size_t>& placed_;
     std::size_t total_;
     memory::RunArena<Node>* arena_;
+    Node* regions_;
+    RegionRate rate_;
 };
 
 /// Sets the total size of every chunk and the final index of its first node (pre-order, each
@@ -470,17 +555,32 @@ inline std::size_t place_chunks(Chunk& c, std::size_t base, std::vector<Chunk*>&
 }
 
 /// Copies one chunk into the final array, turning local child indices into final ones and
-/// pointing the parents of sub-chunks at their roots.
-inline void copy_chunk(const Chunk& c, Node* out) {
+/// pointing the parents of sub-chunks at their roots; `out` holds final indices from `first` on.
+/// A chunk in a region of `out` itself moves down or stays (movable_in_place: every chunk ends
+/// at or below the next region), node by node from the first, so each is read before it can be
+/// overwritten.
+inline void copy_chunk(const Chunk& c, Node* out, std::size_t first = 0) {
     const bool plain = c.links.empty() || c.links.front().at == c.nodes.size();  // sub-chunks only after
-    for (std::size_t i = 0; i < c.nodes.size(); ++i) {
-        Node n = c.nodes[i];
-        for (std::uint32_t& k : n.child)
-            if (k != kNoChild) k = static_cast<std::uint32_t>(plain ? c.base + k : c.final_index(k));
-        out[plain ? c.base + i : c.final_index(i)] = n;
+    const std::size_t size = c.nodes.size();
+    if (plain) {  // most chunks: one shift for all (a region is plain)
+        const Node* from = size ? &c.nodes[0] : nullptr;
+        Node* to = out + (c.base - first);
+        const auto base = static_cast<std::uint32_t>(c.base);
+        for (std::size_t i = 0; i < size; ++i) {
+            Node n = from[i];
+            for (std::uint32_t& child : n.child) child += child != kNoChild ? base : 0u;
+            to[i] = n;
+        }
+    } else {
+        for (std::size_t i = 0; i < size; ++i) {
+            Node n = c.nodes[i];
+            for (std::uint32_t& child : n.child)
+                if (child != kNoChild) child = static_cast<std::uint32_t>(c.final_index(child));
+            out[c.final_index(i) - first] = n;
+        }
     }
     for (const Chunk::Link& l : c.links)
-        out[c.final_index(l.node)].child[l.slot] = static_cast<std::uint32_t>(l.sub->base);
+        out[c.final_index(l.node) - first].child[l.slot] = static_cast<std::uint32_t>(l.sub->base);
 }
 
 /// The statistics of all chunks together.
@@ -493,31 +593,111 @@ inline void collect_stats(const std::vector<Chunk*>& list, BuildStats& s) {
     }
 }
 
-/// Joins the chunks into one pre-order node array (copied in parallel) and fills the stats.
+/// Whether the chunks (in pre-order) can be copied into place one after another inside the
+/// array that holds their regions: every node must land below `room`, and no chunk on a region
+/// that a later chunk still has to read. Then no region chunk moves up (its base is the end of
+/// the chunks before it, at most its region's start).
+inline bool movable_in_place(const std::vector<Chunk*>& list, std::size_t total, std::size_t room) {
+    if (total > room) return false;
+    std::size_t unread = room;  // the lowest region start of the chunks after the one looked at
+    for (auto it = list.rbegin(); it != list.rend(); ++it) {
+        const Chunk& c = **it;
+        const std::size_t end = c.nodes.size() ? c.final_index(c.nodes.size() - 1) + 1 : c.base;
+        if (end > unread) return false;
+        if (c.nodes.in_region()) unread = std::min(unread, c.nodes.region_at());
+    }
+    return true;
+}
+
+/// How assemble() made the tree's array (for tests).
+enum class Assembly {
+    Whole,    ///< a one-thread build: the one chunk's vector became the array
+    InPlace,  ///< the chunks moved into pre-order inside the array of their regions
+    Copied,   ///< the chunks copied into a new array, in parallel
+};
+
+/// Moves the chunks (pre-order, movable_in_place) into place in `out`, the array of their
+/// regions, in parallel: the list is cut into one part a thread, of about equal nodes, each
+/// moved in order. A part's first chunks, those whose places still hold regions of the parts
+/// before it, are copied aside and put in place once all parts are done (at 10^6 spheres
+/// ~1/30 of the nodes).
 template <Executor X>
-void assemble(Chunk& root, Tree& t, X& exec) {
-    std::vector<Chunk*> list;
-    std::size_t total = place_chunks(root, 0, list);
-    if (total >= std::numeric_limits<std::uint32_t>::max())
-        throw Error("bih::build: " + std::to_string(total) + " nodes exceed 32-bit node indices");
-    collect_stats(list, t.stats);
-    t.stats.nodes = total;
-    if (list.size() == 1 && !root.nodes.in_arena()) {
-        t.nodes = std::move(root.nodes.vector());
-        return;
+void move_chunks(const std::vector<Chunk*>& list, std::size_t total, Node* out, X& exec) {
+    const std::size_t parts = std::clamp<std::size_t>(exec.concurrency(), 1, list.size());
+    std::vector<std::size_t> cut(parts + 1, list.size());  // part p: list[cut[p], cut[p + 1])
+    cut[0] = 0;
+    for (std::size_t k = 0, p = 1, nodes = 0; k < list.size() && p < parts; ++k) {
+        nodes += list[k]->nodes.size();
+        if (nodes >= total / parts * p) cut[p++] = k + 1;
     }
-    if (t.nodes.capacity() < total) {  // new pages: faulted on all threads, not in the resize
-        t.nodes.clear();
-        memory::prefault<Node>(total, exec);
-    }
-    t.nodes.resize(total);
-    Node* out = t.nodes.data();
+    struct Aside {
+        std::size_t first = 0;  ///< final index of nodes[0]
+        LargeVector<Node> nodes;
+    };
+    std::vector<Aside> aside(parts);
+    exec.parallel_for(0, parts, 1, [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t p = lo; p < hi; ++p) {
+            std::size_t guard = 0;  // end of the last region before this part (regions ascend)
+            for (std::size_t k = cut[p]; k-- > 0;)
+                if (list[k]->nodes.in_region()) {
+                    guard = list[k]->nodes.region_at() + list[k]->nodes.size();
+                    break;
+                }
+            std::size_t k = cut[p], end = cut[p];
+            while (end < cut[p + 1] && list[end]->base < guard) ++end;  // bases ascend
+            if (end > k) {
+                aside[p].first = list[k]->base;
+                aside[p].nodes.resize((end < list.size() ? list[end]->base : total) - aside[p].first);
+                for (; k < end; ++k) copy_chunk(*list[k], aside[p].nodes.data(), aside[p].first);
+            }
+            for (; k < cut[p + 1]; ++k) copy_chunk(*list[k], out);
+        }
+    });
+    for (const Aside& a : aside) std::copy(a.nodes.begin(), a.nodes.end(), out + a.first);
+}
+
+/// Copies the chunks into `out` (total nodes, pre-order) in parallel; frees their vectors.
+template <Executor X>
+void copy_chunks(const std::vector<Chunk*>& list, Node* out, X& exec) {
     exec.parallel_for(0, list.size(), 1, [&](std::size_t lo, std::size_t hi) {
         for (std::size_t k = lo; k < hi; ++k) {
             copy_chunk(*list[k], out);
             LargeVector<Node>().swap(list[k]->nodes.vector());  // lowers the peak memory (arena runs: at the end)
         }
     });
+}
+
+/// Joins the chunks into one pre-order node array and fills the stats. With `regions`, t.nodes
+/// is the array the serial chunks' regions are in (RegionRate): the chunks move into place in
+/// it (move_chunks), unless that could overwrite a region before it is read; then, as without
+/// regions, they are copied into a new array in parallel.
+template <Executor X>
+Assembly assemble(Chunk& root, Tree& t, X& exec, bool regions) {
+    std::vector<Chunk*> list;
+    std::size_t total = place_chunks(root, 0, list);
+    if (total >= std::numeric_limits<std::uint32_t>::max())
+        throw Error("bih::build: " + std::to_string(total) + " nodes exceed 32-bit node indices");
+    collect_stats(list, t.stats);
+    t.stats.nodes = total;
+    if (list.size() == 1 && root.nodes.is_vector()) {
+        t.nodes = std::move(root.nodes.vector());
+        return Assembly::Whole;
+    }
+    if (regions && movable_in_place(list, total, t.nodes.size())) {
+        move_chunks(list, total, t.nodes.data(), exec);
+        t.nodes.resize(total);
+        return Assembly::InPlace;
+    }
+    LargeVector<Node> fresh;  // the regions' array is read while the copy is written
+    LargeVector<Node>& out = regions ? fresh : t.nodes;
+    if (out.capacity() < total) {  // new pages: faulted on all threads, not in the resize
+        out.clear();
+        memory::prefault<Node>(total, exec);
+    }
+    out.resize(total);
+    copy_chunks(list, out.data(), exec);
+    if (regions) t.nodes.swap(fresh);
+    return Assembly::Copied;
 }
 
 /// Fills in the statistics of a finished tree (any tree whose children follow their parents).
@@ -539,9 +719,11 @@ inline void measure(Tree& t) {
     }
 }
 
-/// bih::build into `t`, reusing its order array (bih::rebuild, sylva/bih/refit.hpp).
+/// bih::build into `t`, reusing its arrays (bih::rebuild, sylva/bih/refit.hpp). `rate` replaces
+/// RegionRate::for_config and `how` learns how the node array was made (both for tests).
 template <Bounded E, Executor X>
-void build_into(Tree& t, std::span<const E> elements, const Config& config, X& exec) {
+void build_into(Tree& t, std::span<const E> elements, const Config& config, X& exec,
+                std::optional<RegionRate> rate = std::nullopt, Assembly* how = nullptr) {
     auto start = std::chrono::steady_clock::now();
     // The records, nodes and order are written once and read by the encoder or the WideTree
     // collapse, not by queries: 4 KiB pages where those fault cheaply (core/memory.hpp).
@@ -559,18 +741,29 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         memory::prefault<std::uint32_t>(elements.size(), exec);
     }
     t.order.resize(elements.size());
-    // A parallel build's chunks live in an arena until they are assembled (the condition is
-    // SubtreeBuilder::children's for the root). Blocks of about 1/16 of the nodes expected
-    // (reserve_for's estimate), between 1 and 64 MiB; one block where all of them fit in 1 MiB
-    // (small pages then: a fresh huge page costs as much as 2 MiB of them, mostly unused).
+    // A parallel build (the condition is SubtreeBuilder::children's for the root) writes its
+    // serial chunks into regions of t.nodes (RegionRate) and the rest (the chunks whose tasks
+    // fork, regions that overflow) into an arena until they are assembled: blocks of 1 MiB, or
+    // one block where all the nodes expected (reserve_for's estimate) fit in less (small pages
+    // then: a fresh huge page costs as much as 2 MiB of them, mostly unused). Without regions
+    // (a zero rate) the arena holds every chunk: blocks of about 1/16 of the nodes expected,
+    // between 1 and 64 MiB.
     std::optional<memory::RunArena<Node>> arena;
-    if (exec.concurrency() > 1 && elements.size() > cfg.parallel_threshold) {
+    const RegionRate regions = rate ? *rate : RegionRate::for_config(cfg);
+    const bool parallel = exec.concurrency() > 1 && elements.size() > cfg.parallel_threshold;
+    if (parallel) {
         const std::size_t n = elements.size();
         const std::size_t expected = (cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements) + 64;
         const std::size_t large = (memory::kLargeBlock + sizeof(Node) - 1) / sizeof(Node);
         arena.emplace(expected <= large ? expected
-                                        : std::clamp<std::size_t>(expected / 16, large,
-                                                                  (std::size_t{64} << 20) / sizeof(Node)));
+                      : regions.num ? large
+                                    : std::clamp<std::size_t>(expected / 16, large, (std::size_t{64} << 20) / sizeof(Node)));
+        if (regions.num) {
+            const std::size_t room = regions.offset(n);
+            t.nodes.clear();
+            if (t.nodes.capacity() < room) memory::prefault<Node>(room, exec);  // as t.order above
+            t.nodes.resize(room);
+        }
     }
     detail::Chunk root;
     {
@@ -580,11 +773,13 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         memory::LargeBuffer<std::uint8_t> side(elements.size());
         t.bounds = detail::gather_prims(elements, prims.data(), exec);
         std::atomic<std::size_t> placed{0};
+        const bool in_regions = parallel && regions.num;
         detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, elements.size(),
-                                          arena ? &*arena : nullptr);
+                                          arena ? &*arena : nullptr, in_regions ? t.nodes.data() : nullptr, regions);
         builder.build(root, 0, elements.size(), t.bounds, 0);
     }
-    detail::assemble(root, t, exec);
+    const Assembly made = detail::assemble(root, t, exec, parallel && regions.num);
+    if (how) *how = made;
     t.stats.elements = elements.size();
     t.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
