@@ -743,11 +743,11 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     t.order.resize(elements.size());
     // A parallel build (the condition is SubtreeBuilder::children's for the root) writes its
     // serial chunks into regions of t.nodes (RegionRate) and the rest (the chunks whose tasks
-    // fork, regions that overflow) into an arena until they are assembled: blocks of 1 MiB, or
-    // one block where all the nodes expected (reserve_for's estimate) fit in less (small pages
-    // then: a fresh huge page costs as much as 2 MiB of them, mostly unused). Without regions
-    // (a zero rate) the arena holds every chunk: blocks of about 1/16 of the nodes expected,
-    // between 1 and 64 MiB.
+    // fork, a few nodes each, and regions that overflow) into an arena until they are
+    // assembled: blocks of n / 64 nodes, 64 KiB to 1 MiB (4 KiB pages: at 10^4 spheres a 2 MiB
+    // huge page for ~100 nodes was a tenth of a cold build). Without regions (a zero rate) the
+    // arena holds every chunk: blocks of about 1/16 of the nodes expected (reserve_for's
+    // estimate), between 1 and 64 MiB, or one block where all of them fit in 1 MiB.
     std::optional<memory::RunArena<Node>> arena;
     const RegionRate regions = rate ? *rate : RegionRate::for_config(cfg);
     const bool parallel = exec.concurrency() > 1 && elements.size() > cfg.parallel_threshold;
@@ -755,9 +755,10 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         const std::size_t n = elements.size();
         const std::size_t expected = (cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements) + 64;
         const std::size_t large = (memory::kLargeBlock + sizeof(Node) - 1) / sizeof(Node);
-        arena.emplace(expected <= large ? expected
-                      : regions.num ? large
-                                    : std::clamp<std::size_t>(expected / 16, large, (std::size_t{64} << 20) / sizeof(Node)));
+        const std::size_t small = memory::kCachedBlock / sizeof(Node);
+        arena.emplace(regions.num       ? std::clamp<std::size_t>(n / 64, small, large - small)
+                      : expected <= large ? expected
+                                          : std::clamp<std::size_t>(expected / 16, large, (std::size_t{64} << 20) / sizeof(Node)));
         if (regions.num) {
             const std::size_t room = regions.offset(n);
             t.nodes.clear();
