@@ -751,15 +751,18 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     std::optional<memory::RunArena<Node>> arena;
     const RegionRate regions = rate ? *rate : RegionRate::for_config(cfg);
     const bool parallel = exec.concurrency() > 1 && elements.size() > cfg.parallel_threshold;
+    // Regions only where all of them have 32-bit node indices (beyond, the arena alone).
+    const bool in_regions =
+        parallel && regions.num && regions.offset(elements.size()) < std::numeric_limits<std::uint32_t>::max();
     if (parallel) {
         const std::size_t n = elements.size();
         const std::size_t expected = (cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements) + 64;
         const std::size_t large = (memory::kLargeBlock + sizeof(Node) - 1) / sizeof(Node);
         const std::size_t small = memory::kCachedBlock / sizeof(Node);
-        arena.emplace(regions.num       ? std::clamp<std::size_t>(n / 64, small, large - small)
+        arena.emplace(in_regions        ? std::clamp<std::size_t>(n / 64, small, large - small)
                       : expected <= large ? expected
                                           : std::clamp<std::size_t>(expected / 16, large, (std::size_t{64} << 20) / sizeof(Node)));
-        if (regions.num) {
+        if (in_regions) {
             const std::size_t room = regions.offset(n);
             t.nodes.clear();
             if (t.nodes.capacity() < room) memory::prefault<Node>(room, exec);  // as t.order above
@@ -774,12 +777,11 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         memory::LargeBuffer<std::uint8_t> side(elements.size());
         t.bounds = detail::gather_prims(elements, prims.data(), exec);
         std::atomic<std::size_t> placed{0};
-        const bool in_regions = parallel && regions.num;
         detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, elements.size(),
                                           arena ? &*arena : nullptr, in_regions ? t.nodes.data() : nullptr, regions);
         builder.build(root, 0, elements.size(), t.bounds, 0);
     }
-    const Assembly made = detail::assemble(root, t, exec, parallel && regions.num);
+    const Assembly made = detail::assemble(root, t, exec, in_regions);
     if (how) *how = made;
     t.stats.elements = elements.size();
     t.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
