@@ -265,6 +265,24 @@ TEST_CASE("refit: element octree refit refuses a bad margin and a tree not store
     CHECK(octree::encode_elements(et) == before);  // a refit in place of the same positions
 }
 
+TEST_CASE("refit: a BIH rebuild over a bad element throws and keeps the tree", "[bih][parallel]") {
+    ThreadPool pool(2);
+    auto es = testing::random_spheres(20000, 262);  // parallel: the nodes are built in regions of t.nodes
+    std::span<const Sphere> s(es);
+    for (const bih::Config& cfg : {bih::Config{}, bih::Config::for_queries()}) {
+        bih::Tree t = bih::build(s, cfg, pool);
+        const auto before = bih::encode(t, s, bih::RangePayload{});
+        const std::vector<std::uint32_t> order(t.order.begin(), t.order.end());
+        const std::size_t nodes = t.stats.nodes;
+        auto bad = es;
+        bad[1234].radius = std::numeric_limits<float>::quiet_NaN();
+        CHECK_THROWS_WITH(bih::rebuild(t, std::span<const Sphere>(bad), cfg, pool), Catch::Contains("element 1234"));
+        CHECK(bih::encode(t, s, bih::RangePayload{}) == before);
+        CHECK(std::vector<std::uint32_t>(t.order.begin(), t.order.end()) == order);
+        CHECK(t.stats.nodes == nodes);
+    }
+}
+
 TEST_CASE("refit: an element octree rebuild over a bad element throws and keeps the tree", "[octree]") {
     ThreadPool pool(2);
     auto es = testing::random_spheres(3000, 261);

@@ -735,12 +735,6 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     cfg.max_depth = std::min<std::uint32_t>(cfg.max_depth, SYLVA_BIH_DEPTH_CAP);
     cfg.max_leaf_elements = std::max<std::uint32_t>(cfg.max_leaf_elements, 1);
 
-    t.stats = {};
-    if (t.order.capacity() < elements.size()) {  // new pages: faulted on all threads, not in the resize
-        t.order.clear();
-        memory::prefault<std::uint32_t>(elements.size(), exec);
-    }
-    t.order.resize(elements.size());
     // A parallel build (the condition is SubtreeBuilder::children's for the root) writes its
     // serial chunks into regions of t.nodes (RegionRate) and the rest (the chunks whose tasks
     // fork, a few nodes each, and regions that overflow) into an arena until they are
@@ -748,38 +742,46 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     // huge page for ~100 nodes was a tenth of a cold build). Without regions (a zero rate) the
     // arena holds every chunk: blocks of about 1/16 of the nodes expected (reserve_for's
     // estimate), between 1 and 64 MiB, or one block where all of them fit in 1 MiB.
-    std::optional<memory::RunArena<Node>> arena;
+    const std::size_t n = elements.size();
     const RegionRate regions = rate ? *rate : RegionRate::for_config(cfg);
-    const bool parallel = exec.concurrency() > 1 && elements.size() > cfg.parallel_threshold;
+    const bool parallel = exec.concurrency() > 1 && n > cfg.parallel_threshold;
     // Regions only where all of them have 32-bit node indices (beyond, the arena alone).
-    const bool in_regions =
-        parallel && regions.num && regions.offset(elements.size()) < std::numeric_limits<std::uint32_t>::max();
+    const bool in_regions = parallel && regions.num && regions.offset(n) < std::numeric_limits<std::uint32_t>::max();
+    std::optional<memory::RunArena<Node>> arena;
     if (parallel) {
-        const std::size_t n = elements.size();
         const std::size_t expected = (cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements) + 64;
         const std::size_t large = (memory::kLargeBlock + sizeof(Node) - 1) / sizeof(Node);
         const std::size_t small = memory::kCachedBlock / sizeof(Node);
         arena.emplace(in_regions        ? std::clamp<std::size_t>(n / 64, small, large - small)
                       : expected <= large ? expected
                                           : std::clamp<std::size_t>(expected / 16, large, (std::size_t{64} << 20) / sizeof(Node)));
-        if (in_regions) {
-            const std::size_t room = regions.offset(n);
-            t.nodes.clear();
-            if (t.nodes.capacity() < room) memory::prefault<Node>(room, exec);  // as t.order above
-            t.nodes.resize(room);
-        }
     }
     detail::Chunk root;
     {
         // Scratch from the large-block allocator: default-initialised (no zeroing pass), and
-        // warm memory when an earlier build freed blocks of this size.
-        memory::LargeBuffer<detail::Prim> prims(elements.size());
-        memory::LargeBuffer<std::uint8_t> side(elements.size());
-        t.bounds = detail::gather_prims(elements, prims.data(), exec);
+        // warm memory when an earlier build freed blocks of this size (freed before the
+        // assembly, which may reuse it). The records come first: a bad element throws before
+        // anything of `t` changes (a rebuild keeps its tree).
+        memory::LargeBuffer<detail::Prim> prims(n);
+        memory::LargeBuffer<std::uint8_t> side(n);
+        const Aabb bounds = detail::gather_prims(elements, prims.data(), exec);
+        t.stats = {};
+        t.bounds = bounds;
+        if (t.order.capacity() < n) {  // new pages: faulted on all threads, not in the resize
+            t.order.clear();
+            memory::prefault<std::uint32_t>(n, exec);
+        }
+        t.order.resize(n);
+        if (in_regions) {
+            const std::size_t room = regions.offset(n);
+            t.nodes.clear();
+            if (t.nodes.capacity() < room) memory::prefault<Node>(room, exec);  // as t.order
+            t.nodes.resize(room);
+        }
         std::atomic<std::size_t> placed{0};
-        detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, elements.size(),
+        detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, n,
                                           arena ? &*arena : nullptr, in_regions ? t.nodes.data() : nullptr, regions);
-        builder.build(root, 0, elements.size(), t.bounds, 0);
+        builder.build(root, 0, n, t.bounds, 0);
     }
     const Assembly made = detail::assemble(root, t, exec, in_regions);
     if (how) *how = made;
