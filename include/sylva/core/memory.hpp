@@ -84,8 +84,9 @@ inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
 /// (a collapse there takes 0.4-3 ms). From the cache the collapse reuses what the build just
 /// freed. Such blocks are mapped with MAP_POPULATE: they are filled soon after (each is one
 /// array, at most 1 MiB), and faulting all pages in one call costs much less there than a fault
-/// a page (a first default BIH build over 10^4 spheres, ~80 pages of records: 3.6-4.9 ms a
-/// fault a page, 2.6-4.3 ms populated, ten fresh processes each). A constant, like kLargeBlock.
+/// a page (a first default BIH build over 10^4 spheres, ~80 pages of records, two sets of ten
+/// fresh processes: medians 4.0-4.4 ms a fault a page, 3.1-3.3 ms populated). A constant, like
+/// kLargeBlock.
 inline constexpr std::size_t kCachedBlock = std::size_t{64} << 10;
 #if defined(MAP_POPULATE)
 inline constexpr int kPopulate = MAP_POPULATE;
