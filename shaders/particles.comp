@@ -7,15 +7,17 @@
 // (sylva/shared/ray_buffer.h; read only when ray_source is SYLVA_RAYS_BUFFER, else a dummy).
 // Push constants: the camera (12 floats), width, height, BIH word count, alpha_stop, ray source
 // (SYLVA_RAYS_*: the camera as pinhole or orthographic, or binding 6).
-// Specialization constants: 0 split shift, 1 stack entries (>= the tree's max depth).
+// Specialization constants: 0 split shift, 1 stack entries (>= the tree's max depth), 2 parts of
+// the split BIH holding data (1: loads read part 0 directly, SYLVA_SPLIT_WORDS_COUNTED).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
 layout(constant_id = 1) const int STACK_SIZE = 64;
+layout(constant_id = 2) const uint SPLIT_PARTS = 4u;
 #define SYLVA_BIH_STACK_SIZE STACK_SIZE
 
 #include "sylva/shared/split_words.glsl"
-SYLVA_SPLIT_WORDS(words, 0, SPLIT_SHIFT)
+SYLVA_SPLIT_WORDS_COUNTED(words, 0, SPLIT_SHIFT, SPLIT_PARTS)
 layout(std430, binding = 4) readonly buffer Elems { uint elems[]; };
 layout(std430, binding = 5) writeonly buffer Pixels { uint pixels[]; };
 layout(std430, binding = 6) readonly buffer Rays { uint ray_words[]; };

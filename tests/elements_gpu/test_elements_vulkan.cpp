@@ -132,12 +132,23 @@ std::size_t differing_pixels(const vk::Context& ctx, const Frame& host, const Fr
     return bad;
 }
 
+/// The smallest split shift that still fits `words` into the four buffer parts: the index then
+/// spans three or four of them, so every load selects its part (SPLIT_PARTS > 1).
+std::uint32_t shift_spanning_parts(std::size_t words) {
+    std::uint32_t shift = 1;
+    while ((std::size_t{4} << shift) < words) ++shift;
+    return shift;
+}
+
+/// `shift` 0: the index in as few parts as the device allows (one, here: loads read part 0).
 template <class E, class I = BihIndex, class S>
-void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S& s, std::uint32_t seed) {
+void check_hits(vk::Context& ctx, std::span<const std::uint32_t> spirv, const S& s, std::uint32_t seed,
+                std::uint32_t shift = 0) {
     std::vector<Ray> rs;
     std::vector<Interval> ranges;
     rays(600, seed, rs, ranges);
-    std::conditional_t<std::is_same_v<I, BihIndex>, vk::DeviceBih, vk::DeviceElementIndex> bih(ctx, s.words);
+    std::conditional_t<std::is_same_v<I, BihIndex>, vk::DeviceBih, vk::DeviceElementIndex> bih(ctx, s.words, shift);
+    if (shift != 0) REQUIRE(vk::used_parts(s.words.size(), shift) >= 3u);
     vk::DeviceRecords recs(ctx, s.records, element_words<E>());
     vk::ElementKernel kernel(ctx, spirv);
     for (std::uint32_t max_hits : {1u, 200u}) {
@@ -281,6 +292,17 @@ TEST_CASE("vulkan: Sphere and GaussianRbf hit sequences equal the host's word fo
     vk::Context ctx = vk::Context::create();
     check_hits<Sphere>(ctx, spirv::elements_sphere, Scene<Sphere>(spheres(3000, 71)), 72);
     check_hits<GaussianRbf>(ctx, spirv::elements_rbf, Scene<GaussianRbf>(rbfs(3000, 73), bih::Config::for_queries()), 74);
+}
+
+TEST_CASE("vulkan: the element kernel over an index split into three or four buffer parts: hit sequences equal the host's",
+          "[elements][vulkan]") {
+    // The kernel reads part 0 directly when the index fits one part (SPLIT_PARTS 1, the common
+    // case) and selects the part of each load otherwise: this covers the second path.
+    vk::Context ctx = vk::Context::create();
+    Scene<Sphere> s(spheres(3000, 75));
+    check_hits<Sphere>(ctx, spirv::elements_sphere, s, 76, shift_spanning_parts(s.words.size()));
+    IndexScene<demo::Capsule, KdIndex> kd(capsules(3000, 77));
+    check_hits<demo::Capsule, KdIndex>(ctx, spirv::test_elements_capsule_kd, kd, 78, shift_spanning_parts(kd.words.size()));
 }
 
 TEST_CASE("vulkan: element images equal the host's within 2e-6", "[elements][vulkan]") {

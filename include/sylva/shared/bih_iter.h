@@ -19,6 +19,16 @@
 //
 // In GLSL the stack lives in a private global (see SYLVA_BIH_STACK below), so a shader
 // invocation runs one BIH iterator at a time; in C++ the caller owns all of the state.
+//
+// Node boxes: the iterator carries each node's box (it.lo / it.hi) and hands out the leaf's
+// (it.leaf_lo / it.leaf_hi) for callers that need it (inline particle leaves, BIH-DVR). A GLSL
+// shader that never reads them defines SYLVA_BIH_NO_BOXES before including this header: the
+// box fields and the stack's box entries are then left out (reading one is a compile error) and
+// only the intervals are kept. On lavapipe a stack entry read or written costs a scalar load
+// or store per SIMD lane, and every push and pop runs masked in every iteration, so the six box
+// words of an entry were over a third of the element kernel's time (halo 640x480: 0.83 s to
+// 0.55 s a frame). Traversal order and intervals do not depend on the boxes; C++ always keeps
+// them (the struct is one type for every translation unit).
 // The stack holds SYLVA_BIH_STACK_SIZE entries (define it before including; default the hard
 // cap SYLVA_BIH_DEPTH_CAP). Trees deeper than the stack are refused at init (status ERROR),
 // every child index is checked against the node count and the steps are bounded by it, so a
@@ -31,6 +41,12 @@
 
 #ifndef SYLVA_BIH_STACK_SIZE
 #define SYLVA_BIH_STACK_SIZE 64
+#endif
+
+#if defined(SYLVA_BIH_NO_BOXES) && !defined(__cplusplus)
+#define SYLVA_BIH_BOXES 0
+#else
+#define SYLVA_BIH_BOXES 1
 #endif
 
 #define SYLVA_ITER_RUNNING 0u
@@ -46,8 +62,10 @@ struct SylvaBihStack {
     float st_in[SYLVA_BIH_STACK_SIZE];
     float st_out[SYLVA_BIH_STACK_SIZE];
     float st_min_in[SYLVA_BIH_STACK_SIZE];  ///< the smallest st_in of entries 0..i (sylva_bih_stack_min_in)
+#if SYLVA_BIH_BOXES
     vec3 st_lo[SYLVA_BIH_STACK_SIZE];
     vec3 st_hi[SYLVA_BIH_STACK_SIZE];
+#endif
 };
 
 struct SylvaBihIter {
@@ -59,10 +77,12 @@ struct SylvaBihIter {
     uint node;          ///< node to visit next, SYLVA_NO_NODE to pop
     float t_in;
     float t_out;
+#if SYLVA_BIH_BOXES
     vec3 lo;            ///< box of `node`, traversal space
     vec3 hi;
     vec3 leaf_lo;       ///< box of the last leaf returned, traversal space
     vec3 leaf_hi;
+#endif
     uint sp;
     uint steps;         ///< nodes visited so far (the traversal-cost heat map)
     uint status;
@@ -116,14 +136,16 @@ SYLVA_FN void sylva_bih_init(SYLVA_OUT(SylvaBihIter) it, SYLVA_BUF(words), uint 
     it.steps = 0u;
     it.node = SYLVA_NO_NODE;
     it.t_limit = t_max;
-    it.leaf_lo = vec3(0.0f);
-    it.leaf_hi = vec3(0.0f);
     // Defined before the refusal below, so that no field of a refused iterator is read unset.
     it.org = vec3(0.0f);
     it.rcp = vec3(0.0f);
     it.parallel = uvec3(0u);
+#if SYLVA_BIH_BOXES
+    it.leaf_lo = vec3(0.0f);
+    it.leaf_hi = vec3(0.0f);
     it.lo = vec3(0.0f);
     it.hi = vec3(0.0f);
+#endif
     it.t_in = 0.0f;
     it.t_out = 0.0f;
     if (it.hdr.valid == 0u || it.hdr.max_depth > uint(SYLVA_BIH_STACK_SIZE)) {
@@ -138,12 +160,16 @@ SYLVA_FN void sylva_bih_init(SYLVA_OUT(SylvaBihIter) it, SYLVA_BUF(words), uint 
     it.parallel = uvec3((d.x == 0.0f) ? 1u : 0u, (d.y == 0.0f) ? 1u : 0u, (d.z == 0.0f) ? 1u : 0u);
     it.rcp = vec3(sylva_safe_rcp(d.x), sylva_safe_rcp(d.y), sylva_safe_rcp(d.z));
     bool fixed16 = (it.hdr.flags & SYLVA_BIH_FLAG_FLOAT_NODES) == 0u;
-    it.lo = fixed16 ? vec3(0.0f) : it.hdr.root_lo;
-    it.hi = fixed16 ? vec3(1.0f) : it.hdr.root_hi;
+    vec3 root_lo = fixed16 ? vec3(0.0f) : it.hdr.root_lo;
+    vec3 root_hi = fixed16 ? vec3(1.0f) : it.hdr.root_hi;
+#if SYLVA_BIH_BOXES
+    it.lo = root_lo;
+    it.hi = root_hi;
+#endif
     float t0 = t_min;
     float t1 = t_max;
     for (uint a = 0u; a < 3u; a++) {
-        vec2 ab = sylva_slab(sylva_pick(it.lo, a), sylva_pick(it.hi, a), sylva_pick(it.org, a),
+        vec2 ab = sylva_slab(sylva_pick(root_lo, a), sylva_pick(root_hi, a), sylva_pick(it.org, a),
                              sylva_pick(it.rcp, a), sylva_pick_u(it.parallel, a));
         t0 = sylva_max(t0, ab.x);
         t1 = sylva_min(t1, ab.y);
@@ -158,7 +184,8 @@ SYLVA_FN void sylva_bih_init(SYLVA_OUT(SylvaBihIter) it, SYLVA_BUF(words), uint 
 /// Prunes everything the ray would enter after t (e.g. once a first hit at t is known).
 SYLVA_FN void sylva_bih_clip(SYLVA_INOUT(SylvaBihIter) it, float t) { it.t_limit = sylva_min(it.t_limit, t); }
 
-SYLVA_FN void sylva_bih_push(SYLVA_INOUT(SylvaBihIter) it, uint node, vec2 t, vec3 lo, vec3 hi) {
+/// Pushes a subtree entered over t (its box, where boxes are kept: sylva_bih_push_box).
+SYLVA_FN void sylva_bih_push(SYLVA_INOUT(SylvaBihIter) it, uint node, vec2 t) {
     if (it.sp >= uint(SYLVA_BIH_STACK_SIZE)) {  // unreachable for valid trees (depth <= stack)
         it.status = SYLVA_ITER_ERROR;
         return;
@@ -167,10 +194,17 @@ SYLVA_FN void sylva_bih_push(SYLVA_INOUT(SylvaBihIter) it, uint node, vec2 t, ve
     SYLVA_BIH_STACK(it).st_in[it.sp] = t.x;
     SYLVA_BIH_STACK(it).st_out[it.sp] = t.y;
     SYLVA_BIH_STACK(it).st_min_in[it.sp] = (it.sp > 0u) ? sylva_min(SYLVA_BIH_STACK(it).st_min_in[it.sp - 1u], t.x) : t.x;
-    SYLVA_BIH_STACK(it).st_lo[it.sp] = lo;
-    SYLVA_BIH_STACK(it).st_hi[it.sp] = hi;
     it.sp = it.sp + 1u;
 }
+
+#if SYLVA_BIH_BOXES
+/// The box of the subtree sylva_bih_push just added.
+SYLVA_FN void sylva_bih_push_box(SYLVA_INOUT(SylvaBihIter) it, vec3 lo, vec3 hi) {
+    if (it.sp == 0u) return;  // the push overflowed (status ERROR)
+    SYLVA_BIH_STACK(it).st_lo[it.sp - 1u] = lo;
+    SYLVA_BIH_STACK(it).st_hi[it.sp - 1u] = hi;
+}
+#endif
 
 /// Pops the next subtree that still starts before t_limit; false when none is left.
 SYLVA_FN bool sylva_bih_pop(SYLVA_INOUT(SylvaBihIter) it) {
@@ -180,8 +214,10 @@ SYLVA_FN bool sylva_bih_pop(SYLVA_INOUT(SylvaBihIter) it) {
             it.node = SYLVA_BIH_STACK(it).st_node[it.sp];
             it.t_in = SYLVA_BIH_STACK(it).st_in[it.sp];
             it.t_out = sylva_min(SYLVA_BIH_STACK(it).st_out[it.sp], it.t_limit);
+#if SYLVA_BIH_BOXES
             it.lo = SYLVA_BIH_STACK(it).st_lo[it.sp];
             it.hi = SYLVA_BIH_STACK(it).st_hi[it.sp];
+#endif
             return true;
         }
     }
@@ -238,26 +274,38 @@ SYLVA_FN void sylva_bih_descend(SYLVA_INOUT(SylvaBihIter) it, uint axis, uvec2 k
     vec2 tr = vec2(lr.z, lr.w);
     bool hit_l = kids.x != SYLVA_NO_NODE && tl.x <= tl.y;
     bool hit_r = kids.y != SYLVA_NO_NODE && tr.x <= tr.y;
+#if SYLVA_BIH_BOXES
     vec3 lo_r = sylva_with(it.lo, axis, planes.y);
     vec3 hi_l = sylva_with(it.hi, axis, planes.x);
+#endif
     bool left_first = sylva_bih_left_first(r);
     if (hit_l && hit_r) {
         if (left_first) {
-            sylva_bih_push(it, kids.y, tr, lo_r, it.hi);
+            sylva_bih_push(it, kids.y, tr);
+#if SYLVA_BIH_BOXES
+            sylva_bih_push_box(it, lo_r, it.hi);
+#endif
         } else {
-            sylva_bih_push(it, kids.x, tl, it.lo, hi_l);
+            sylva_bih_push(it, kids.x, tl);
+#if SYLVA_BIH_BOXES
+            sylva_bih_push_box(it, it.lo, hi_l);
+#endif
         }
     }
     if (hit_l && (left_first || !hit_r)) {
         it.node = kids.x;
         it.t_in = tl.x;
         it.t_out = tl.y;
+#if SYLVA_BIH_BOXES
         it.hi = hi_l;
+#endif
     } else if (hit_r) {
         it.node = kids.y;
         it.t_in = tr.x;
         it.t_out = tr.y;
+#if SYLVA_BIH_BOXES
         it.lo = lo_r;
+#endif
     } else {
         it.node = SYLVA_NO_NODE;
     }
@@ -273,8 +321,10 @@ SYLVA_FN void sylva_bih_descend_single(SYLVA_INOUT(SylvaBihIter) it, uint axis, 
         it.node = child;
         it.t_in = t0;
         it.t_out = t1;
+#if SYLVA_BIH_BOXES
         it.lo = sylva_with(it.lo, axis, planes.x);
         it.hi = sylva_with(it.hi, axis, planes.y);
+#endif
     } else {
         it.node = SYLVA_NO_NODE;
     }
@@ -307,8 +357,10 @@ SYLVA_FN bool sylva_bih_visit(SYLVA_INOUT(SylvaBihIter) it, SYLVA_BUF(words), SY
         leaf = n;
         t0 = it.t_in;
         t1 = it.t_out;
+#if SYLVA_BIH_BOXES
         it.leaf_lo = it.lo;
         it.leaf_hi = it.hi;
+#endif
         it.node = SYLVA_NO_NODE;
         return true;
     }

@@ -13,7 +13,12 @@
 // floats each: origin, direction, t_min, t_max; image mode: the caller's rays, 6 floats a pixel,
 // sylva/shared/ray_buffer.h, when ray_source is SYLVA_RAYS_BUFFER, else a dummy); 6 output (see
 // element_main.glsl).
-// Specialization constants: 0 split shift, 1 BIH stack entries (>= the tree's depth).
+// Specialization constants: 0 split shift, 1 BIH stack entries (>= the tree's depth), 2 parts of
+// the split index holding data (1: every load reads part 0 directly, SYLVA_SPLIT_WORDS_COUNTED;
+// the default 4 suits any index).
+// The kernels never read BIH node boxes, so the iterator keeps none (SYLVA_BIH_NO_BOXES,
+// sylva/shared/bih_iter.h): on lavapipe this and the direct loads make the kernel about twice
+// as fast.
 // Push constants: 100 bytes, sylva::vk::ElementPush (sylva/vulkan/elements.hpp).
 #ifndef SYLVA_SHARED_ELEMENT_PROLOGUE_GLSL
 #define SYLVA_SHARED_ELEMENT_PROLOGUE_GLSL
@@ -21,11 +26,13 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const uint SPLIT_SHIFT = 25u;
 layout(constant_id = 1) const int STACK_SIZE = 64;
+layout(constant_id = 2) const uint SPLIT_PARTS = 4u;
 #define SYLVA_BIH_STACK_SIZE STACK_SIZE
+#define SYLVA_BIH_NO_BOXES
 
 #include "sylva/shared/lang.h"
 #include "sylva/shared/split_words.glsl"
-SYLVA_SPLIT_WORDS(words, 0, SPLIT_SHIFT)
+SYLVA_SPLIT_WORDS_COUNTED(words, 0, SPLIT_SHIFT, SPLIT_PARTS)
 layout(std430, binding = 4) readonly buffer SylvaElems { uint sylva_elems_data[]; };
 layout(std430, binding = 5) readonly buffer SylvaRays { float sylva_rays_data[]; };
 layout(std430, binding = 6) buffer SylvaOut { uint sylva_out_data[]; };  // image mode reads it back to resume

@@ -135,6 +135,7 @@ SYLVA_FN void sylva_inline_leaf(SYLVA_INOUT(SylvaComposite) acc, uvec2 payload, 
     sylva_particle_add(acc, c, r, kappa, payload.x, o, d, t0, t1);
 }
 
+#if SYLVA_BIH_BOXES  // inline leaves read the leaf's box: not in shaders that define SYLVA_BIH_NO_BOXES
 /// Renders one ray through a particle BIH; returns premultiplied RGB and opacity. `steps`
 /// receives the number of nodes visited (the heat map), `status` the iterator's final status.
 /// Encodings whose payload kind is neither SYLVA_PAYLOAD_RANGE nor SYLVA_PAYLOAD_PARTICLE_RGBA
@@ -172,6 +173,7 @@ SYLVA_FN vec4 sylva_render_particles(SYLVA_BUF(words), uint word_count, SYLVA_BU
     status = it.status;
     return vec4(acc.rgb.x, acc.rgb.y, acc.rgb.z, acc.alpha);
 }
+#endif
 
 SYLVA_END_NAMESPACE
 

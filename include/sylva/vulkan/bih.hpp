@@ -111,17 +111,18 @@ public:
     }
 
 private:
+    /// Specialization constants of particles.comp: split shift, stack entries, parts holding data.
     Kernel& kernel_for(const DeviceBih& bih) {
         auto c = bih.constants();
-        auto key = (std::uint64_t{c[0]} << 32) | c[1];
+        std::array<std::uint32_t, 3> key{c[0], c[1], used_parts(bih.word_count(), c[0])};
         auto found = kernels_.find(key);
         if (found == kernels_.end())
-            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv::particles, 7, 68, c)).first;
+            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv::particles, 7, 68, key)).first;
         return *found->second;
     }
 
     Context* ctx_;
-    std::map<std::uint64_t, std::unique_ptr<Kernel>> kernels_;
+    std::map<std::array<std::uint32_t, 3>, std::unique_ptr<Kernel>> kernels_;
 };
 
 /// Renders an encoded particle BIH on the device; same output as render_particles_cpu. Throws

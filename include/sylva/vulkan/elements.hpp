@@ -100,8 +100,8 @@ private:
 };
 
 /// A user's element shader: SPIR-V of a .comp that includes element_prologue.glsl, the element
-/// header and element_main.glsl. Pipelines are made per BIH stack depth and split shift (the
-/// specialization constants) and kept.
+/// header and element_main.glsl. Pipelines are made per BIH stack depth, split shift and parts
+/// holding data (the specialization constants) and kept.
 class ElementKernel {
 public:
     /// Copies the SPIR-V; checks it (sylva::vk::Kernel) when the first pipeline is made.
@@ -236,13 +236,15 @@ private:
             static_cast<void>(what);
         }
     }
+    /// The pipeline for the index's specialization constants (element_prologue.glsl): split
+    /// shift, BIH stack entries, and the parts of the split index that hold data.
     template <class Index>
     Kernel& kernel_for(Index& bih) {
         auto c = bih.constants();
-        auto key = (std::uint64_t{c[0]} << 32) | c[1];
+        std::array<std::uint32_t, 3> key{c[0], c[1], used_parts(bih.word_count(), c[0])};
         auto found = kernels_.find(key);
         if (found == kernels_.end())
-            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv_, 7, sizeof(ElementPush), c)).first;
+            found = kernels_.emplace(key, std::make_unique<Kernel>(*ctx_, spirv_, 7, sizeof(ElementPush), key)).first;
         return *found->second;
     }
 
@@ -250,7 +252,7 @@ private:
     std::vector<std::uint32_t> spirv_;
     std::uint32_t loop_budget_ = 0;
     std::uint32_t resumes_ = 0;
-    std::map<std::uint64_t, std::unique_ptr<Kernel>> kernels_;
+    std::map<std::array<std::uint32_t, 3>, std::unique_ptr<Kernel>> kernels_;
 };
 
 }  // namespace sylva::vk

@@ -29,13 +29,6 @@
 
 namespace sylva::vk {
 
-/// How many parts of 2^shift words `words` words fill (at least 1): the PARTS specialization
-/// constant of SYLVA_SPLIT_WORDS_COUNTED (1 lets the shader skip the part selection).
-inline std::uint32_t used_parts(std::size_t words, std::uint32_t shift) {
-    std::size_t part = std::size_t{1} << shift;
-    return static_cast<std::uint32_t>(std::max<std::size_t>(1, (words + part - 1) / part));
-}
-
 /// A density grid uploaded once (split over four bindings, so grids over 128 MiB work).
 class DeviceGrid {
 public:
