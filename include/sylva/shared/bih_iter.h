@@ -198,9 +198,9 @@ SYLVA_FN void sylva_bih_push(SYLVA_INOUT(SylvaBihIter) it, uint node, vec2 t) {
 }
 
 #if SYLVA_BIH_BOXES
-/// The box of the subtree sylva_bih_push just added.
+/// The box of the subtree sylva_bih_push just added (nothing after a push that overflowed).
 SYLVA_FN void sylva_bih_push_box(SYLVA_INOUT(SylvaBihIter) it, vec3 lo, vec3 hi) {
-    if (it.sp == 0u) return;  // the push overflowed (status ERROR)
+    if (it.status == SYLVA_ITER_ERROR || it.sp == 0u) return;
     SYLVA_BIH_STACK(it).st_lo[it.sp - 1u] = lo;
     SYLVA_BIH_STACK(it).st_hi[it.sp - 1u] = hi;
 }
