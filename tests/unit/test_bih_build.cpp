@@ -112,7 +112,6 @@ std::uint64_t fingerprint(const bih::Tree& t) {
     return h;
 }
 
-/// The configurations the golden values cover.
 /// Fingerprints of the trees the original builder (sylva 704a01c: index-permutation partition,
 /// per-subtree node vectors) made for golden_boxes(kind, kind == 2 ? 3001 : 20000) under
 /// golden_configs()[c]: kGoldenTrees[kind][c].
@@ -122,6 +121,7 @@ constexpr std::uint64_t kGoldenTrees[3][5] = {
     {0x8a9ad69c5a7a4329ull, 0x89fc734e40eb5246ull, 0x72a1ede4a016e658ull, 0x65c0ea1248404f9bull, 0x013db559a57d33c7ull},
 };
 
+/// The configurations the golden values cover.
 std::vector<bih::Config> golden_configs() {
     std::vector<bih::Config> out(5);
     out[1].empty_children = bih::EmptyChildren::Infinite;
@@ -210,9 +210,8 @@ TEST_CASE("progress is reported up to completion", "[bih][build]") {
 }
 
 TEST_CASE("the builder makes the same trees as the reference implementation (golden fingerprints)", "[bih][build]") {
-    // Fingerprints of the trees the original builder (sylva 704a01c: index-permutation
-    // partition, per-subtree node vectors) made for these inputs. Speed-ups of the builder must
-    // keep nodes, planes, order and statistics bit for bit: other stages and users rely on them.
+    // kGoldenTrees: the original builder's trees. Speed-ups of the builder must keep nodes,
+    // planes, order and statistics bit for bit: other stages and users rely on them.
     const auto& want = kGoldenTrees;
     ThreadPool pool(2);
     for (int kind = 0; kind < 3; ++kind) {
