@@ -106,7 +106,7 @@ void describe_configs(Report& report) {
     report.describe("float32", "as fixed16 with NodeFormat::Float32");
     report.describe("fixed16-leaf4", "bih::Config{max_leaf_elements = 4, trim_leaves = false}; otherwise as fixed16");
     report.describe("wide", "bih::WideTree over the fixed16-leaf4 tree (WideConfig{}: 8-wide nodes, refitted boxes, "
-                            "leaves of up to 4 spheres, 8 above 2^19 spheres, in packets of four); bih::first_hit / "
+                            "leaves of up to 4 spheres, 8 above 2^15 spheres, in packets of four); bih::first_hit / "
                             "all_hits(wide); its build time is the leaf4 build plus the collapse (encode/.../wide)");
     report.describe("fixed16-query", "bih::Config::for_queries() (up to 32 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
                              "TreeChunks, 2}, RangePayload; bih::LeafRecords (spheres in leaf order, 16-byte records, "

@@ -62,9 +62,11 @@ struct WideConfig {
     /// one leaf). 0 (the default) chooses by size: 4 (one packet of spheres) up to kSmallTree
     /// elements, where the tree stays in cache and a node test costs more than the sphere tests
     /// it saves; 8 above, where traversal waits on memory and fewer, fuller nodes win (measured
-    /// with sylva-bench: at 10^4 / 10^5 spheres 4 is 5-15 % faster, at 10^6 / 10^7 8 is 15-35 %).
+    /// with sylva-bench: at 10^4 spheres 4 is 5-15 % faster for all hits and as fast for the
+    /// first, at 10^5 8 gives the first hit 1.1-1.2x and all hits the same, at 10^6 / 10^7 8 is
+    /// 15-35 % faster; until the first hit tested a node's leaves together, 4 won at 10^5 too).
     std::uint32_t max_leaf_elements = 0;
-    static constexpr std::size_t kSmallTree = std::size_t{1} << 19;
+    static constexpr std::size_t kSmallTree = std::size_t{1} << 15;
     /// The leaf size used for `elements` elements.
     [[nodiscard]] std::uint32_t leaf_size(std::size_t elements) const {
         if (max_leaf_elements != 0) return max_leaf_elements;
