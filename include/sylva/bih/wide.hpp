@@ -63,8 +63,8 @@ struct WideConfig {
     /// elements, where the tree stays in cache and a node test costs more than the sphere tests
     /// it saves; 8 above, where traversal waits on memory and fewer, fuller nodes win (measured
     /// with sylva-bench: at 10^4 spheres 4 is 5-15 % faster for all hits and as fast for the
-    /// first, at 10^5 8 gives the first hit 1.1-1.2x and all hits the same, at 10^6 / 10^7 8 is
-    /// 15-35 % faster; until the first hit tested a node's leaves together, 4 won at 10^5 too).
+    /// first; at 10^5 the two are within the bench's run-to-run spread for all hits, and 8 gives
+    /// the first hit 1.05-1.1x on one thread; at 10^6 / 10^7 8 is 15-35 % faster).
     std::uint32_t max_leaf_elements = 0;
     static constexpr std::size_t kSmallTree = std::size_t{1} << 15;
     /// The leaf size used for `elements` elements.
@@ -320,8 +320,10 @@ private:
             // The entered leaves first, in slot order, their loads issued together: testing
             // them here instead of pushing them nearest first costs a packet test where a
             // nearer hit would have pruned one, and saves their sorts, pushes and pops and
-            // the wait on each leaf's load right after its push (sylva-bench first hit at
-            // 1e4-1e6, uniform and clustered: 1.1-1.3x the nearest-first leaves).
+            // the wait on each leaf's load right after its push. Measured on one thread (best
+            // of 7 passes of 2e5 rays, three alternating rounds): as fast at 1e4 and 1e6, and
+            // with leaves of 8 (WideConfig) 1.05-1.1x at 1e5. Handing a node's leaves to
+            // batch_hits' branch-free prefilter instead was no faster.
             const int leaves = mask & leaf_mask(n);
             for (int m = leaves; m != 0; m &= m - 1) detail::prefetch(&records_[n.child[lowest_bit(m)]]);
             for (int m = leaves; m != 0; m &= m - 1) {
