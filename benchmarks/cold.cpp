@@ -48,8 +48,8 @@ constexpr ColdBuilder kColdBuilders[] = {
 };
 
 /// Builds `spheres` once with `impl` and returns the milliseconds the build took (as the build
-/// race times it: sylva's builder call; Embree's rtcCommitScene; the wide tree: its leaf4 build
-/// plus the collapse).
+/// race times it: sylva's builder call; Embree's rtcCommitScene; the wide tree: the build of its
+/// BIH (bih::wide_source_config) plus the collapse).
 double time_one_build(const std::string& impl, const std::vector<sylva::Sphere>& spheres, sylva::ThreadPool& pool) {
     if (impl == "default" || impl == "leaf4" || impl == "query") {
         TreeKind kind = impl == "default" ? TreeKind::Default : impl == "leaf4" ? TreeKind::Leaf4 : TreeKind::Query;
@@ -58,7 +58,7 @@ double time_one_build(const std::string& impl, const std::vector<sylva::Sphere>&
     }
     if (impl == "wide") {
         sylva::bih::Tree tree;
-        double ms = time_sylva_build(tree, spheres, TreeKind::Leaf4, pool);
+        double ms = time_sylva_build(tree, spheres, TreeKind::Wide, pool);
         return ms + time_ms([&] {
                    sylva::bih::WideTree<sylva::Sphere> wide(tree, std::span<const sylva::Sphere>(spheres),
                                                             sylva::bih::WideConfig{}, pool);

@@ -105,9 +105,10 @@ void describe_configs(Report& report) {
                                "RangePayload; bih::first_hit / all_hits(words, tree, spheres) (elements via tree.order)");
     report.describe("float32", "as fixed16 with NodeFormat::Float32");
     report.describe("fixed16-leaf4", "bih::Config{max_leaf_elements = 4, trim_leaves = false}; otherwise as fixed16");
-    report.describe("wide", "bih::WideTree over the fixed16-leaf4 tree (WideConfig{}: 8-wide nodes, refitted boxes, "
-                            "leaves of up to 4 spheres, 8 above 2^15 spheres, in packets of four); bih::first_hit / "
-                            "all_hits(wide); its build time is the leaf4 build plus the collapse (encode/.../wide)");
+    report.describe("wide", "bih::WideTree (WideConfig{}: 8-wide nodes, refitted boxes, leaves of up to 4 spheres, 8 "
+                            "above 2^15 spheres, in packets of four) collapsed from the BIH of bih::wide_source_config "
+                            "(leaves of that size, untrimmed), as bih::build_wide makes it; bih::first_hit / "
+                            "all_hits(wide); its build time is that BIH's build plus the collapse (encode/.../wide)");
     report.describe("fixed16-query", "bih::Config::for_queries() (up to 32 spheres a leaf, untrimmed); EncodeConfig{Fixed16, "
                              "TreeChunks, 2}, RangePayload; bih::LeafRecords (spheres in leaf order, 16-byte records, "
                              "tested four at a time); bih::first_hit / all_hits(words, records)");
@@ -166,6 +167,7 @@ double time_sylva_build(bih::Tree& out, const std::vector<Sphere>& spheres, Tree
         cfg.trim_leaves = false;
     }
     if (kind == TreeKind::Query) cfg = bih::Config::for_queries();
+    if (kind == TreeKind::Wide) cfg = bih::wide_source_config(spheres.size());
     out = {};
     return time_ms([&] { out = bih::build(std::span<const Sphere>(spheres), cfg, pool); });
 }
@@ -206,7 +208,7 @@ void bench_sylva_encode(SylvaIndex& idx, const std::vector<Sphere>& spheres, con
                "bytes", "", "fixed16-query");
     idx.wide_ms = samples(opt.runs, opt.encode_budget_ms(), [&] {
         idx.wide = {};
-        return time_ms([&] { idx.wide = bih::WideTree<Sphere>(idx.leaf4_tree, es, bih::WideConfig{}, pool); });
+        return time_ms([&] { idx.wide = bih::WideTree<Sphere>(idx.wide_tree, es, bih::WideConfig{}, pool); });
     });
     report.add(enc + "/wide", "sylva", "encode_ms", median(steady(idx.wide_ms)), "ms", "", "wide");
     report.add(enc + "/wide", "sylva", "bytes", static_cast<double>(idx.wide.stats().bytes), "bytes", "", "wide");

@@ -10,6 +10,7 @@
 #include <sylva/bih/query.hpp>
 #include <sylva/bih/tree.hpp>
 #include <sylva/bih/wide.hpp>
+#include <sylva/bih/wide_build.hpp>
 #include <sylva/core/executor.hpp>
 #include <sylva/kdtree/elements.hpp>
 #include <sylva/octree/elements.hpp>
@@ -30,7 +31,8 @@ struct SylvaIndex {
     sylva::bih::Tree query_tree;
     std::vector<std::uint32_t> query;  ///< fixed16 encoding of query_tree
     sylva::bih::LeafRecords<sylva::Sphere> query_records;
-    sylva::bih::WideTree<sylva::Sphere> wide;  ///< leaf4_tree collapsed (bih::WideTree, WideConfig{})
+    sylva::bih::Tree wide_tree;                ///< the BIH of bih::wide_source_config (TreeKind::Wide)
+    sylva::bih::WideTree<sylva::Sphere> wide;  ///< wide_tree collapsed (bih::WideTree, WideConfig{})
     std::vector<double> wide_ms;               ///< the collapse's timed runs
     sylva::octree::ElementTree octree_tree;    ///< the element octree (octree::ElementConfig{}), spheres in order
     std::vector<std::uint32_t> octree;         ///< its encoding (octree::encode_elements)
@@ -58,7 +60,9 @@ void describe_configs(Report& report);
 
 /// The builds the cases time: bih::Config{} (one trimmed sphere per leaf), leaf4 (4 spheres a
 /// leaf, untrimmed) and query (bih::Config::for_queries()).
-enum class TreeKind { Default, Leaf4, Query };
+/// Default: bih::Config{}; Leaf4: 4 elements a leaf, untrimmed; Query: Config::for_queries();
+/// Wide: bih::wide_source_config (the BIH a WideTree is collapsed from: leaves of its leaf size).
+enum class TreeKind { Default, Leaf4, Query, Wide };
 /// One timed bih::build into `out` (its previous tree is freed before the clock starts); ms.
 double time_sylva_build(sylva::bih::Tree& out, const std::vector<sylva::Sphere>& spheres, TreeKind kind,
                         sylva::ThreadPool& pool);

@@ -8,6 +8,7 @@
 
 #include <sylva/bih/build.hpp>
 #include <sylva/bih/wide.hpp>
+#include <sylva/bih/wide_build.hpp>
 
 #include "generators.hpp"
 
@@ -138,6 +139,66 @@ TEST_CASE("WideConfig chooses the leaf size by the tree's size unless told", "[b
                     biggest = std::max(biggest, k);
                 }
         CHECK(biggest == (w == &four ? 4u : 8u));
+    }
+}
+
+/// build_wide (a BIH with leaves of the wide leaf size, then the collapse) against the WideTree
+/// of the 4-a-leaf BIH: the same nodes, leaves and depth, and the same answers.
+template <class E>
+void check_build_wide(const std::vector<E>& elems, const std::vector<Ray>& rays) {
+    std::span<const E> es(elems);
+    ThreadPool pool(2);
+    const bih::Config src = bih::wide_source_config(es.size());
+    CHECK(src.max_leaf_elements == bih::WideConfig{}.leaf_size(es.size()));
+    CHECK_FALSE(src.trim_leaves);
+    CHECK(bih::wide_source_config(es.size(), bih::WideConfig{13}).max_leaf_elements == 13u);
+    bih::Config leaf4;
+    leaf4.max_leaf_elements = 4;
+    leaf4.trim_leaves = false;
+    const bih::WideTree<E> from_leaf4(bih::build(es, leaf4, pool), es, bih::WideConfig{}, pool);
+    const bih::WideTree<E> wide = bih::build_wide(es, bih::WideConfig{}, pool);
+    const bih::WideTree<E> serial = bih::build_wide(es);
+    for (const bih::WideTree<E>* w : {&wide, &serial}) {
+        REQUIRE(w->stats().nodes > 0);
+        CHECK(w->stats().nodes == from_leaf4.stats().nodes);
+        CHECK(w->stats().leaves == from_leaf4.stats().leaves);
+        CHECK(w->stats().depth == from_leaf4.stats().depth);
+        CHECK(w->stats().bytes == from_leaf4.stats().bytes);
+        check_structure(*w, es);
+    }
+    std::vector<bih::ElementHit> hits, expected;
+    std::size_t total = 0, mismatches = 0;
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+        bih::all_hits(from_leaf4, rays[i], expected);
+        if (i % 10 == 0) CHECK(expected == bih::brute_force_hits(es, rays[i]));
+        total += expected.size();
+        for (const bih::WideTree<E>* w : {&wide, &serial}) {
+            bih::all_hits(*w, rays[i], hits);
+            if (hits != expected) ++mismatches;
+            if (bih::first_hit(*w, rays[i]) != bih::first_hit(from_leaf4, rays[i])) ++mismatches;
+        }
+    }
+    CHECK(mismatches == 0);
+    CHECK(total > rays.size());
+}
+
+TEST_CASE("build_wide makes the WideTree of the 4-a-leaf BIH from a BIH with leaves of its leaf size",
+          "[bih][wide]") {
+    SECTION("40,000 spheres: leaves of 8, half the BIH") {
+        auto spheres = testing::random_spheres(40000, 91);
+        REQUIRE(bih::WideConfig{}.leaf_size(spheres.size()) == 8u);
+        check_build_wide(spheres, testing::random_rays(2000, {vec3(-1.0f), vec3(1.0f)}, 92));
+    }
+    SECTION("clustered boxes above and below 2^15") {
+        check_build_wide(testing::clustered_boxes(40000, 93), testing::random_rays(2000, {vec3(0.0f), vec3(10.0f)}, 94));
+        check_build_wide(testing::clustered_boxes(3000, 95), testing::random_rays(2000, {vec3(0.0f), vec3(10.0f)}, 96));
+    }
+    SECTION("bad input is refused as bih::build refuses it") {
+        std::vector<Sphere> none;
+        CHECK_THROWS_WITH(bih::build_wide(std::span<const Sphere>(none)), Catch::Contains("no elements"));
+        auto spheres = testing::random_spheres(100, 97);
+        spheres[42].radius = std::numeric_limits<float>::quiet_NaN();
+        CHECK_THROWS_WITH(bih::build_wide(std::span<const Sphere>(spheres)), Catch::Contains("42"));
     }
 }
 

@@ -73,7 +73,8 @@ struct Config {
     /// element, and a query visits many of them per leaf). Measured with sylva-bench's spheres
     /// and rays, 16 and 32 were within 5 % of the best of 2..64 elements a leaf up to 10^6
     /// spheres; at 10^7, 32 was ~15 % faster. (A bih::WideTree, the fastest host queries, is
-    /// best made from a tree with 4 elements a leaf, untrimmed: bih/wide.hpp.)
+    /// best made by bih::build_wide, from a tree with leaves of its leaf size, untrimmed:
+    /// bih/wide_build.hpp.)
     [[nodiscard]] static Config for_queries() {
         Config c;
         c.max_leaf_elements = 32;

@@ -25,6 +25,9 @@
 // then the exact test, bit-identical to Sphere::intersect, for the candidates), and the hits are
 // sorted at the end. first_hit walks inner nodes nearest entry first, tests a node's entered leaves
 // as soon as the node is tested, and prunes what lies beyond its best.
+//
+// Any checked BIH collapses; the fastest to build from is one with leaves of the wide tree's leaf
+// size (bih::build_wide in sylva/bih/wide_build.hpp makes it and collapses it in one call).
 #ifndef SYLVA_BIH_WIDE_HPP
 #define SYLVA_BIH_WIDE_HPP
 
