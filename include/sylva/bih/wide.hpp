@@ -570,15 +570,35 @@ private:
         LargeVector<LeafJob> jobs;  ///< from 64 KiB (~5,500 leaves) a warm block of LargeAllocator's cache
         std::uint32_t records = 0;  ///< records (sphere packets or elements) handed out so far
 
-        /// Spheres in the tree's order (sorted[k] = elements[order[k]]): gathered once, in
-        /// parallel, so that the leaves' boxes and the packets read them in sequence instead of
-        /// each making a random read per sphere (measured at 10^6 spheres: the two random passes
-        /// were 26 of the collapse's 69 ms). Empty for other element types and small trees
-        /// (parallel()), whose spheres stay in cache: there the copy only cost a first build.
-        LargeVector<E> sorted;
-        /// Element k of the tree's order.
-        [[nodiscard]] const E& ordered(std::size_t k) const {
-            return sorted.empty() ? elements[tree.order[k]] : sorted[k];
+        /// Centres and radii of the spheres in the tree's order (sorted[k] = elements[order[k]]'s):
+        /// gathered once, in parallel, so that the leaves' boxes and the packets read them in
+        /// sequence instead of each making a random read per sphere (measured at 10^6 spheres:
+        /// the two random passes were 26 of the collapse's 69 ms). 16 bytes a sphere, not the
+        /// Sphere's 36 (its colour and falloff are not needed here), and not zeroed first: at
+        /// 10^6 the whole Sphere copy, then read twice, took 7.6 ms of the gather and most of
+        /// the 8 ms fill. Absent for other element types and small trees (parallel()), whose
+        /// elements stay in cache: there the copy only cost a first build.
+        std::optional<memory::LargeBuffer<SphereRecord>> sorted;
+        /// Centre and radius of sphere k of the tree's order.
+        [[nodiscard]] SphereRecord sphere_at(std::size_t k) const
+            requires kSpheres
+        {
+            if (sorted) return sorted->data()[k];
+            const Sphere& e = elements[tree.order[k]];
+            return {{e.center.x, e.center.y, e.center.z}, e.radius};
+        }
+        /// Box of element k of the tree's order: for spheres the arithmetic of Sphere::bounds
+        /// (sylva_elem_bounds), so the same bits.
+        [[nodiscard]] Aabb bounds_at(std::size_t k) const {
+            if constexpr (kSpheres) {
+                const SphereRecord s = sphere_at(k);
+                Aabb b;
+                b.lo = vec3(s.c[0] - s.r, s.c[1] - s.r, s.c[2] - s.r);
+                b.hi = vec3(s.c[0] + s.r, s.c[1] + s.r, s.c[2] + s.r);
+                return b;
+            } else {
+                return bounds_of(elements[tree.order[k]]);
+            }
         }
 
         /// Tight boxes, counts and order ranges of every BIH subtree the root reaches, children
@@ -591,10 +611,14 @@ private:
             memory::SmallPagesWhereCheap small_pages;
             if constexpr (kSpheres) {
                 if (parallel()) {
-                    memory::prefault<E>(tree.order.size(), exec);  // its pages faulted on all threads
-                    sorted.resize(tree.order.size());
+                    memory::prefault<SphereRecord>(tree.order.size(), exec);  // its pages faulted on all threads
+                    sorted.emplace(tree.order.size());
+                    SphereRecord* out = sorted->data();
                     exec.parallel_for(0, tree.order.size(), 16384, [&](std::size_t lo, std::size_t hi) {
-                        for (std::size_t k = lo; k < hi; ++k) sorted[k] = elements[tree.order[k]];
+                        for (std::size_t k = lo; k < hi; ++k) {
+                            const Sphere& e = elements[tree.order[k]];
+                            out[k] = {{e.center.x, e.center.y, e.center.z}, e.radius};
+                        }
                     });
                 }
             }
@@ -678,7 +702,7 @@ private:
                 f.first = node.first;
                 f.count = node.count;
                 for (std::uint32_t k = node.first; k < node.first + node.count; ++k)
-                    f.box.extend(bounds_of(ordered(k)));
+                    f.box.extend(bounds_at(k));
                 return f;
             }
             std::uint32_t lo = std::numeric_limits<std::uint32_t>::max(), hi = 0;
@@ -938,9 +962,9 @@ private:
                         for (std::uint32_t k = 0; k < job.count; ++k) {
                             std::uint32_t id = tree.order[job.first + k];
                             SpherePacket& p = out.records_[job.record + k / 4u];
-                            const Sphere& sp = ordered(job.first + k);
-                            for (int a = 0; a < 3; ++a) p.c[a][k % 4u] = sp.center[a];
-                            p.r[k % 4u] = sp.radius;
+                            const SphereRecord sp = sphere_at(job.first + k);
+                            for (int a = 0; a < 3; ++a) p.c[a][k % 4u] = sp.c[a];
+                            p.r[k % 4u] = sp.r;
                             out.ids_[std::size_t{job.record} * 4u + k] = id;
                         }
                     }
