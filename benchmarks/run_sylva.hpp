@@ -58,10 +58,9 @@ std::vector<Variant> variants(const SylvaIndex& idx);
 /// What each configuration name in case names means (build and encode settings, query path).
 void describe_configs(Report& report);
 
-/// The builds the cases time: bih::Config{} (one trimmed sphere per leaf), leaf4 (4 spheres a
-/// leaf, untrimmed) and query (bih::Config::for_queries()).
-/// Default: bih::Config{}; Leaf4: 4 elements a leaf, untrimmed; Query: Config::for_queries();
-/// Wide: bih::wide_source_config (the BIH a WideTree is collapsed from: leaves of its leaf size).
+/// The builds the cases time: Default bih::Config{} (one trimmed sphere per leaf), Leaf4 (4
+/// spheres a leaf, untrimmed), Query (bih::Config::for_queries()) and Wide
+/// (bih::wide_source_config: the BIH a WideTree is collapsed from, leaves of its leaf size).
 enum class TreeKind { Default, Leaf4, Query, Wide };
 /// One timed bih::build into `out` (its previous tree is freed before the clock starts); ms.
 double time_sylva_build(sylva::bih::Tree& out, const std::vector<sylva::Sphere>& spheres, TreeKind kind,

@@ -574,9 +574,9 @@ private:
         /// gathered once, in parallel, so that the leaves' boxes and the packets read them in
         /// sequence instead of each making a random read per sphere (measured at 10^6 spheres:
         /// the two random passes were 26 of the collapse's 69 ms). 16 bytes a sphere, not the
-        /// Sphere's 36 (its colour and falloff are not needed here), and not zeroed first: at
-        /// 10^6 the whole Sphere copy, then read twice, took 7.6 ms of the gather and most of
-        /// the 8 ms fill. Absent for other element types and small trees (parallel()), whose
+        /// Sphere's 36 (its colour and falloff are not needed here), and not zeroed first: the
+        /// collapse of 10^6 spheres on two threads 27.8-29.2 -> 22.9-23.3 ms (10^5: 2.66-2.92 ->
+        /// 2.41-2.48). Absent for other element types and small trees (parallel()), whose
         /// elements stay in cache: there the copy only cost a first build.
         std::optional<memory::LargeBuffer<SphereRecord>> sorted;
         /// Centre and radius of sphere k of the tree's order.
