@@ -393,6 +393,14 @@ private:
 struct SphereRecord {
     float c[3];
     float r;
+    [[nodiscard]] static SphereRecord of(const Sphere& s) { return {{s.center.x, s.center.y, s.center.z}, s.radius}; }
+    /// The box of the sphere it came from, as Sphere::bounds computes it (the same bits).
+    [[nodiscard]] Aabb bounds() const {
+        Sphere s;
+        s.center = vec3(c[0], c[1], c[2]);
+        s.radius = r;
+        return s.bounds();
+    }
 };
 
 namespace detail {
@@ -508,8 +516,7 @@ public:
             records_.resize(ids_.size() + 3);  // 3 spare zero-radius records: four-wide loads stay inside
             exec.parallel_for(0, ids_.size(), 16384, [&](std::size_t lo, std::size_t hi) {
                 for (std::size_t k = lo; k < hi; ++k) {
-                    const Sphere& sp = elements[ids_[k]];
-                    records_[k] = SphereRecord{{sp.center.x, sp.center.y, sp.center.z}, sp.radius};
+                    records_[k] = SphereRecord::of(elements[ids_[k]]);
                 }
             });
         } else {  // any element type, default-constructible or not

@@ -583,19 +583,12 @@ private:
         [[nodiscard]] SphereRecord sphere_at(std::size_t k) const
             requires kSpheres
         {
-            if (sorted) return sorted->data()[k];
-            const Sphere& e = elements[tree.order[k]];
-            return {{e.center.x, e.center.y, e.center.z}, e.radius};
+            return sorted ? sorted->data()[k] : SphereRecord::of(elements[tree.order[k]]);
         }
-        /// Box of element k of the tree's order: for spheres the arithmetic of Sphere::bounds
-        /// (sylva_elem_bounds), so the same bits.
+        /// Box of element k of the tree's order (for spheres Sphere::bounds, so the same bits).
         [[nodiscard]] Aabb bounds_at(std::size_t k) const {
             if constexpr (kSpheres) {
-                const SphereRecord s = sphere_at(k);
-                Aabb b;
-                b.lo = vec3(s.c[0] - s.r, s.c[1] - s.r, s.c[2] - s.r);
-                b.hi = vec3(s.c[0] + s.r, s.c[1] + s.r, s.c[2] + s.r);
-                return b;
+                return sphere_at(k).bounds();
             } else {
                 return bounds_of(elements[tree.order[k]]);
             }
@@ -615,10 +608,7 @@ private:
                     sorted.emplace(tree.order.size());
                     SphereRecord* out = sorted->data();
                     exec.parallel_for(0, tree.order.size(), 16384, [&](std::size_t lo, std::size_t hi) {
-                        for (std::size_t k = lo; k < hi; ++k) {
-                            const Sphere& e = elements[tree.order[k]];
-                            out[k] = {{e.center.x, e.center.y, e.center.z}, e.radius};
-                        }
+                        for (std::size_t k = lo; k < hi; ++k) out[k] = SphereRecord::of(elements[tree.order[k]]);
                     });
                 }
             }
