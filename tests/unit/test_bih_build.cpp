@@ -95,10 +95,14 @@ std::uint64_t fingerprint(const bih::Tree& t) {
         for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
     };
     for (const bih::Node& n : t.nodes) {
+        // As the original Node held them: separate child and range words, a leaf's children
+        // kNoChild and an inner node's range 0 (a leaf's range now shares its child words).
+        const std::uint32_t child[2] = {n.leaf() ? bih::kNoChild : n.child[0], n.leaf() ? bih::kNoChild : n.child[1]};
+        const std::uint32_t range[2] = {n.leaf() ? n.first : 0u, n.leaf() ? n.count : 0u};
         add(n.plane, sizeof n.plane);
-        add(n.child, sizeof n.child);
-        add(&n.first, 4);
-        add(&n.count, 4);
+        add(child, sizeof child);
+        add(&range[0], 4);
+        add(&range[1], 4);
         add(&n.axis, 1);
         std::uint8_t single = n.single ? 1 : 0;
         add(&single, 1);

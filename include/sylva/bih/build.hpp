@@ -343,7 +343,7 @@ private:
             return;
         }
         Node& n = out.nodes[self];
-        n.axis = static_cast<std::uint8_t>(s.axis);
+        n.make_inner(s.axis);
         n.plane[0] = s.plane[0];
         n.plane[1] = s.plane[1];
         if (s.kind == Split::One) {
@@ -376,7 +376,7 @@ private:
             float hi = (trim_both || left) ? u.hi[a] : box.hi[a];
             Split s = (lo == box.lo[a] && hi == box.hi[a]) ? trim(at, at + 1, box, u)
                                                            : one_child(box, a, lo, hi, left ? at + 1 : at, left);
-            n.axis = static_cast<std::uint8_t>(s.axis);
+            n.make_inner(s.axis);
             n.plane[0] = s.plane[0];
             n.plane[1] = s.plane[1];
             n.single = trim_both;
@@ -569,14 +569,16 @@ inline void copy_chunk(const Chunk& c, Node* out, std::size_t first = 0) {
         const auto base = static_cast<std::uint32_t>(c.base);
         for (std::size_t i = 0; i < size; ++i) {
             Node n = from[i];
-            for (std::uint32_t& child : n.child) child += child != kNoChild ? base : 0u;
+            const std::uint32_t shift = n.leaf() ? 0u : base;  // a leaf's words are first, count
+            for (std::uint32_t& child : n.child) child += child != kNoChild ? shift : 0u;
             to[i] = n;
         }
     } else {
         for (std::size_t i = 0; i < size; ++i) {
             Node n = c.nodes[i];
-            for (std::uint32_t& child : n.child)
-                if (child != kNoChild) child = static_cast<std::uint32_t>(c.final_index(child));
+            if (!n.leaf())
+                for (std::uint32_t& child : n.child)
+                    if (child != kNoChild) child = static_cast<std::uint32_t>(c.final_index(child));
             out[c.final_index(i) - first] = n;
         }
     }

@@ -103,7 +103,7 @@ inline void lod_visit(const FullBih& f, const LodConfig& cfg, const LodItem& it,
         lod.leaves.push_back(VoxelCuboid{f.boxes[it.full], float(s.mean), s.mean_gradient});
         return;
     }
-    out.axis = n.axis;
+    out.make_inner(n.axis);  // children linked as they are emitted
     out.single = n.single;
     out.plane[0] = n.plane[0];
     out.plane[1] = n.plane[1];
