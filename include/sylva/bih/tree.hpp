@@ -26,10 +26,13 @@ inline constexpr std::uint8_t kLeaf = 3;
 struct Node {
     float plane[2] = {0.0f, 0.0f};
     union {
-        std::uint32_t child[2];  ///< inner nodes (whoever makes a node inner sets both)
+        /// Inner nodes (whoever makes a node inner sets both: make_inner). Zero by default: the
+        /// words of an empty leaf's range (first 0, count 0). The initializer sits here, not on
+        /// the struct's members, which would delete the union's default constructor (clang).
+        std::uint32_t child[2] = {0u, 0u};
         struct {
-            std::uint32_t first = 0;  ///< leaves: order[first .. first + count)
-            std::uint32_t count = 0;
+            std::uint32_t first;  ///< leaves: order[first .. first + count)
+            std::uint32_t count;
         };
     };
     std::uint8_t axis = kLeaf;
