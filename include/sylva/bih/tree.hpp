@@ -22,7 +22,7 @@ inline constexpr std::uint8_t kLeaf = 3;
 /// Leaves hold elements order[first .. first + count) of the tree.
 /// 20 bytes: a leaf's `first` and `count` share the words of an inner node's `child` (a node
 /// is one or the other; a default Node is an empty leaf). The builder's array of these is
-/// most of the memory a build touches (4.8 nodes an element in the default tree).
+/// most of the memory a build touches (about five nodes an element in the default tree).
 struct Node {
     float plane[2] = {0.0f, 0.0f};
     union {

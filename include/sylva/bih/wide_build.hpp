@@ -9,8 +9,9 @@
 // elements inside a leaf may differ, which changes no answer (first_hit breaks ties by element
 // index, all_hits sorts). From 2^15 elements, where the leaves hold 8, that is about half the
 // BIH nodes to build and to collapse: measured with a throw-away probe over sylva-bench's
-// uniform spheres on two threads (README, "Shared machinery"), the whole build 9.1-9.5 -> 7.3-7.7 ms at 10^5 and
-// 100-105 -> 84-86 ms at 10^6; up to 2^15 elements the leaves hold 4 and nothing changes.
+// uniform spheres on two threads (README, "Shared machinery"), the whole build 9.1-9.5 ->
+// 7.3-7.7 ms at 10^5 and 100-105 -> 84-86 ms at 10^6; up to 2^15 elements the leaves hold 4
+// and nothing changes.
 //
 //   auto wide = bih::build_wide(std::span<const Sphere>(spheres), bih::WideConfig{}, pool);
 //   auto hit = bih::first_hit(wide, ray);
