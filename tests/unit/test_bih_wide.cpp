@@ -1,6 +1,8 @@
 // bih::WideTree (a BIH collapsed into 8-wide nodes for host queries) against brute force.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -463,3 +465,62 @@ TEST_CASE("the AVX2 node test gives the SSE test's mask and entry t bit for bit"
     CHECK(entered > cases / 4);  // slots are entered often enough for the comparison to mean something
 }
 #endif
+
+namespace {
+/// The slots of `slots` farthest first by entry t, as a sort gives them (ties in slot order).
+std::vector<int> far_first_by_sort(const float tn[bih::kWideWidth], int slots) {
+    std::vector<int> order;
+    for (int c = 0; c < bih::kWideWidth; ++c)
+        if (slots & (1 << c)) order.push_back(c);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return tn[a] > tn[b]; });
+    return order;
+}
+/// Equal, or finite and within a few ulps (what the rank's dropped low bits may not tell apart).
+bool within_ulps(float a, float b) { return a == b || std::fabs(a - b) <= std::max(std::fabs(a), std::fabs(b)) * 1e-6f; }
+}  // namespace
+
+TEST_CASE("first_hit's walk ranks entered children farthest first, as a sort of their entry t", "[bih][wide]") {
+    std::mt19937 rng(77);
+    std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+    const float inf = std::numeric_limits<float>::infinity();
+    std::size_t compared = 0;
+    for (int t = 0; t < 20000; ++t) {
+        float tn[bih::kWideWidth];
+        for (int c = 0; c < bih::kWideWidth; ++c) {
+            int kind = static_cast<int>(rng() % 10u);
+            tn[c] = kind == 0 ? 0.0f : kind == 1 ? -0.0f : kind == 2 ? inf : kind == 3 ? -inf : u(rng);
+        }
+        const int slots = static_cast<int>(rng() % 256u);
+        int rank[bih::kWideWidth];
+        bih::detail::BaseNodeTest::rank_far_first(tn, slots, rank);
+        const int k = __builtin_popcount(static_cast<unsigned>(slots));
+        std::vector<int> at(static_cast<std::size_t>(k), -1);
+        for (int c = 0; c < bih::kWideWidth; ++c) {
+            if (!(slots & (1 << c))) {
+                CHECK(rank[c] == k);  // stored above the entered ones
+                continue;
+            }
+            REQUIRE(rank[c] >= 0);
+            REQUIRE(rank[c] < k);
+            CHECK(at[static_cast<std::size_t>(rank[c])] == -1);  // a permutation
+            at[static_cast<std::size_t>(rank[c])] = c;
+        }
+        // The order by rank is the order by entry t; only the keys' dropped low bits (and
+        // -0 == 0) may reorder slots whose t are within 8 ulps of each other.
+        std::vector<int> sorted = far_first_by_sort(tn, slots);
+        for (std::size_t i = 0; i + 1 < at.size(); ++i) {
+            const float a = tn[at[i]], b = tn[at[i + 1]];
+            CHECK((a >= b || within_ulps(a, b)));
+        }
+        for (std::size_t i = 0; i < at.size(); ++i) CHECK(within_ulps(tn[at[i]], tn[sorted[i]]));
+        compared += static_cast<std::size_t>(k);
+#ifdef SYLVA_BIH_WIDE_AVX2
+        if (bih::detail::cpu_has_avx2()) {
+            int rank_avx[bih::kWideWidth];
+            bih::detail::Avx2NodeTest::rank_far_first(tn, slots, rank_avx);
+            for (int c = 0; c < bih::kWideWidth; ++c) CHECK(rank_avx[c] == rank[c]);
+        }
+#endif
+    }
+    CHECK(compared > 50000);
+}
