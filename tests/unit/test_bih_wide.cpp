@@ -524,3 +524,141 @@ TEST_CASE("first_hit's walk ranks entered children farthest first, as a sort of 
     }
     CHECK(compared > 50000);
 }
+
+namespace {
+
+/// The collapse's objective found by enumeration: over every way of grouping a BIH's subtrees
+/// into wide nodes of at most kWideWidth slots, the least sum of the wide nodes' box
+/// half-areas. A subtree that is a BIH leaf or a contiguous run of at most `leaf` elements is
+/// a leaf slot and never opened. Independent of the builder's dynamic programme: each wide
+/// node's slots are found by opening subtrees one by one in every order.
+class CollapseReference {
+public:
+    CollapseReference(const bih::Tree& tree, std::span<const Sphere> es, std::uint32_t leaf)
+        : tree_(tree), es_(es), leaf_(leaf), facts_(tree.nodes.size()), cost_(tree.nodes.size(), -1.0) {
+        gather(0);
+    }
+    /// The least total half-area of the wide nodes (0 when the root is a leaf).
+    double least() { return is_leaf(0) ? 0.0 : node_cost(0); }
+
+private:
+    struct Facts {
+        Aabb box;
+        std::uint32_t count = 0, lo = UINT32_MAX, hi = 0;  ///< elements, their order range
+    };
+    const bih::Tree& tree_;
+    std::span<const Sphere> es_;
+    std::uint32_t leaf_;
+    std::vector<Facts> facts_;
+    std::vector<double> cost_;
+
+    static double half_area(const Aabb& b) {
+        const double x = b.hi.x - b.lo.x, y = b.hi.y - b.lo.y, z = b.hi.z - b.lo.z;
+        return x * y + y * z + z * x;
+    }
+    std::vector<std::uint32_t> kids(std::uint32_t n) const {
+        std::vector<std::uint32_t> out;
+        const bih::Node& node = tree_.nodes[n];
+        if (node.leaf()) return out;
+        for (int s = 0; s < (node.single ? 1 : 2); ++s)
+            if (node.child[s] != bih::kNoChild && facts_[node.child[s]].count != 0) out.push_back(node.child[s]);
+        return out;
+    }
+    void gather(std::uint32_t n) {
+        Facts& f = facts_[n];
+        const bih::Node& node = tree_.nodes[n];
+        if (node.leaf()) {
+            for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+                f.box.extend(es_[tree_.order[k]].bounds());
+                f.lo = std::min(f.lo, k);
+                f.hi = std::max(f.hi, k + 1);
+            }
+            f.count = node.count;
+            return;
+        }
+        for (int s = 0; s < (node.single ? 1 : 2); ++s) {
+            const std::uint32_t c = node.child[s];
+            if (c == bih::kNoChild) continue;
+            gather(c);
+            if (facts_[c].count == 0) continue;
+            f.box.extend(facts_[c].box);
+            f.count += facts_[c].count;
+            f.lo = std::min(f.lo, facts_[c].lo);
+            f.hi = std::max(f.hi, facts_[c].hi);
+        }
+    }
+    bool is_leaf(std::uint32_t n) const {
+        const Facts& f = facts_[n];
+        return tree_.nodes[n].leaf() || (f.hi - f.lo == f.count && f.count <= leaf_);
+    }
+    /// n as a wide node: its box plus the best grouping of its subtree below it.
+    double node_cost(std::uint32_t n) {
+        if (cost_[n] >= 0.0) return cost_[n];
+        double best = std::numeric_limits<double>::infinity();
+        search(kids(n), 0, best);
+        return cost_[n] = half_area(facts_[n].box) + best;
+    }
+    /// Every slot set reachable from `slots` by opening subtrees at positions >= from.
+    void search(const std::vector<std::uint32_t>& slots, std::size_t from, double& best) {
+        if (slots.size() > static_cast<std::size_t>(bih::kWideWidth)) return;  // opening never shrinks it
+        double here = 0.0;
+        for (std::uint32_t c : slots)
+            if (!is_leaf(c)) here += node_cost(c);
+        best = std::min(best, here);
+        for (std::size_t i = from; i < slots.size(); ++i) {
+            if (is_leaf(slots[i])) continue;
+            std::vector<std::uint32_t> opened(slots.begin(), slots.begin() + static_cast<std::ptrdiff_t>(i));
+            for (std::uint32_t k : kids(slots[i])) opened.push_back(k);
+            opened.insert(opened.end(), slots.begin() + static_cast<std::ptrdiff_t>(i) + 1, slots.end());
+            search(opened, i, best);
+        }
+    }
+};
+
+/// The same sum over the WideTree: each wide node's box is the union of its slots' boxes.
+double wide_node_area(const bih::WideTree<Sphere>& wide) {
+    double sum = 0.0;
+    for (const bih::WideNode& n : wide.nodes()) {
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int c = 0; c < bih::kWideWidth; ++c) {
+            if (n.child[c] == bih::kNoChild) continue;
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min(lo[a], static_cast<double>(n.box[2 * a][c]));
+                hi[a] = std::max(hi[a], static_cast<double>(n.box[2 * a + 1][c]));
+            }
+        }
+        const double x = hi[0] - lo[0], y = hi[1] - lo[1], z = hi[2] - lo[2];
+        sum += x * y + y * z + z * x;
+    }
+    return sum;
+}
+
+}  // namespace
+
+TEST_CASE("the collapse groups subtrees into wide nodes of the least total area (enumerated)", "[bih][wide]") {
+    // Small trees (up to ~40 leaves), uniform and in clusters, with leaves of 1, 2 and 4: the
+    // WideTree's nodes' half-areas sum to the least any grouping reaches (its boxes are padded
+    // by ~2^-20 relative: hence the tolerance).
+    std::size_t trees = 0, beaten = 0;
+    for (std::uint32_t seed = 1; seed <= 12; ++seed) {
+        std::vector<Sphere> spheres = testing::random_spheres(20 + 4 * seed, seed);
+        if (seed % 2 == 0)  // clusters: every third sphere pulled towards one of two points
+            for (std::size_t i = 0; i < spheres.size(); i += 3)
+                spheres[i].center = spheres[i].center * 0.05f + vec3(i % 2 ? 0.7f : -0.6f, 0.2f, 0.1f);
+        std::span<const Sphere> es(spheres);
+        for (std::uint32_t leaf : {1u, 2u, 4u}) {
+            INFO("seed " << seed << ", leaves of " << leaf);
+            bih::Tree tree = bih::build(es, bih::wide_source_config(es.size(), bih::WideConfig{leaf}));
+            bih::WideTree<Sphere> wide(tree, es, bih::WideConfig{leaf});
+            const double least = CollapseReference(tree, es, leaf).least();
+            const double got = wide_node_area(wide);
+            REQUIRE(least > 0.0);
+            CHECK(got <= least * (1.0 + 1e-4));
+            CHECK(got >= least * (1.0 - 1e-4));
+            beaten += got > least * (1.0 + 1e-4);
+            ++trees;
+        }
+    }
+    CHECK(trees == 36);
+    CHECK(beaten == 0);
+}

@@ -7,8 +7,11 @@
 // to about a quarter, refitted boxes prune what the BIH's planes cannot (a BIH child is its
 // parent's box clipped on one axis), and two SSE slab tests (one AVX2 test where the CPU has
 // it, chosen at run time) decide eight children. The tree's topology, leaf ranges and element
-// order are the BIH's; only the encoding differs. Made once per tree, like LeafRecords; the
-// BIH encoding is still what the GPU and the iterators read.
+// order are the BIH's; only the encoding differs. Which BIH subtrees fill a wide node's slots is
+// chosen by dynamic programming over the BIH (Ylitie, Karras, Laine 2017, "Efficient
+// incoherent ray traversal on GPUs through compressed wide BVHs"): the grouping with the least
+// total half-area of wide nodes, the surface-area heuristic with the BIH's leaves fixed. Made
+// once per tree, like LeafRecords; the BIH encoding is still what the GPU and the iterators read.
 //
 // Layout (all host memory, built here from a checked Tree, so nothing to validate on read):
 //   WideNode (256 bytes, 64-aligned): box[6][8] = lo.x, hi.x, lo.y, hi.y, lo.z, hi.z of the
@@ -116,7 +119,27 @@ struct SubtreeFacts {
     bool contiguous = true;
 };
 
-/// Surface-area measure for choosing which child to open next (half the area suffices).
+/// The least cost of one BIH subtree as at most 1, 2, ..., kWideWidth slots of a wide node:
+/// least[i - 1] for i slots (non-increasing in i). The cost is the surface-area heuristic's
+/// with the leaves fixed (they are the BIH's): the sum of the half-areas of the wide nodes the
+/// subtree becomes, as a ray tests a wide node with a chance proportional to its area. One slot
+/// is the subtree as a leaf (cost 0) or as a wide node of its own.
+struct SlotCosts {
+    float least[kWideWidth];
+    /// For i >= 2 slots: how many of them the first child's subtree takes in the least-cost
+    /// spread (the second takes the rest), or 0 where one slot costs no more (split[0] = 0).
+    std::uint8_t split[kWideWidth];
+    /// The first child's share of the least-cost spread over all kWideWidth slots: what a wide
+    /// node made here holds (the one-slot choice is not open to it).
+    std::uint8_t spread;
+    std::uint8_t kind;  ///< kLeaf, kChain (one non-empty child, whose costs these are) or kSpread
+    /// Leaves in the subtree, up to kWideWidth (kWideWidth: that many or more): with at least
+    /// that many slots it costs 0, every leaf in a slot of its own.
+    std::uint8_t leaves;
+    static constexpr std::uint8_t kLeaf = 0, kChain = 1, kSpread = 2;
+};
+
+/// Surface-area measure of the collapse's costs (half the area suffices).
 inline float half_area(const Aabb& b) {
     vec3 e = glm::max(b.hi - b.lo, vec3(0.0f));
     return e.x * e.y + e.y * e.z + e.z * e.x;
@@ -284,7 +307,7 @@ public:
                 throw Error("bih::WideTree: the tree's order refers to element " + std::to_string(e) + " of the " +
                             std::to_string(elements.size()) + " given");
         if (tree.nodes.empty() || tree.order.empty()) return;
-        Builder b{*this, tree, elements, cfg.leaf_size(tree.order.size()), {}, {}, 0, {}};
+        Builder b{*this, tree, elements, cfg.leaf_size(tree.order.size()), {}, {}, 0, {}, {}, nullptr};
         b.refit(exec);
         b.make(exec);
         b.fill(exec);
@@ -641,6 +664,10 @@ private:
         /// 2.41-2.48). Absent for other element types and small trees (parallel()), whose
         /// elements stay in cache: there the copy only cost a first build.
         std::optional<memory::LargeBuffer<SphereRecord>> sorted;
+        /// The collapse's cost of each BIH subtree (detail::SlotCosts), written by subtree_facts
+        /// (children first) before make() reads them: costs[n] for BIH node n.
+        std::optional<memory::LargeBuffer<detail::SlotCosts>> cost_buffer;
+        detail::SlotCosts* costs = nullptr;
         /// Centre and radius of sphere k of the tree's order.
         [[nodiscard]] SphereRecord sphere_at(std::size_t k) const
             requires kSpheres
@@ -676,6 +703,8 @@ private:
             }
             memory::prefault<detail::SubtreeFacts>(tree.nodes.size(), exec);
             facts.assign(tree.nodes.size(), {});
+            memory::prefault<detail::SlotCosts>(tree.nodes.size(), exec);
+            costs = cost_buffer.emplace(tree.nodes.size()).data();
             check_links();
             subtree_facts(0, 0, parallel() ? kParallelDepth : 0u, exec);
         }
@@ -714,6 +743,7 @@ private:
                 if (std::uint64_t{node.first} + node.count > tree.order.size())
                     throw Error("bih::WideTree: leaf " + std::to_string(n) + " refers past the tree's order");
                 facts[n] = fact_of(n);
+                costs[n] = costs_of(n);
                 return;
             }
             Kids k = children(n);
@@ -723,6 +753,7 @@ private:
             else
                 for (std::uint32_t c : k) subtree_facts(c, depth + 1, fork, exec);
             facts[n] = fact_of(n);
+            costs[n] = costs_of(n);
         }
 
         void check_node(std::uint32_t n) const {
@@ -777,6 +808,88 @@ private:
         [[nodiscard]] bool leaf_like(std::uint32_t n) const {
             const detail::SubtreeFacts& f = facts[n];
             return tree.nodes[n].leaf() || (f.contiguous && f.count <= leaf_size);
+        }
+
+        /// The non-empty children of BIH node n (none for a leaf).
+        [[nodiscard]] Kids spread_kids(std::uint32_t n) const {
+            Kids k{};
+            for (std::uint32_t c : children(n))
+                if (facts[c].count != 0) k.id[k.n++] = c;
+            return k;
+        }
+
+        /// costs[n] from its children's (children first): least[j - 1] = min(least[0], the
+        /// least sum over a of the first child's least[a - 1] and the second's least[j - a - 1]).
+        [[nodiscard]] detail::SlotCosts costs_of(std::uint32_t n) const {
+            using detail::SlotCosts;
+            SlotCosts out{};
+            if (leaf_like(n) || facts[n].count == 0) {  // kLeaf, cost 0
+                out.leaves = 1;
+                return out;
+            }
+            const Kids k = spread_kids(n);
+            if (k.n == 1) {
+                out = costs[k.id[0]];
+                out.kind = SlotCosts::kChain;
+                return out;
+            }
+            const SlotCosts& l = costs[k.id[0]];
+            const SlotCosts& r = costs[k.id[1]];
+            float spread[kWideWidth + 1];  // spread[j]: the least cost over j slots, j >= 2
+            std::uint8_t share[kWideWidth + 1];
+            const int flat = l.leaves + r.leaves;  // from this many slots on: every leaf in one
+            out.leaves = static_cast<std::uint8_t>(std::min(flat, kWideWidth));
+            for (int j = 2; j <= kWideWidth; ++j) {
+                if (j >= flat) {  // most nodes, those near the leaves: no search
+                    spread[j] = 0.0f;
+                    share[j] = l.leaves;
+                    continue;
+                }
+                spread[j] = std::numeric_limits<float>::infinity();
+                share[j] = 1;  // where every sum is inf (areas overflowing float)
+                for (int a = 1; a < j; ++a) {  // no branch: the compares do not predict
+                    const float c = l.least[a - 1] + r.least[j - a - 1];
+                    const bool less = c < spread[j];
+                    spread[j] = less ? c : spread[j];
+                    share[j] = less ? static_cast<std::uint8_t>(a) : share[j];
+                }
+            }
+            out.kind = SlotCosts::kSpread;
+            out.spread = share[kWideWidth];
+            out.least[0] = detail::half_area(facts[n].box) + spread[kWideWidth];  // a wide node here
+            for (int j = 2; j <= kWideWidth; ++j) {
+                const bool one = out.least[0] <= spread[j];
+                out.least[j - 1] = one ? out.least[0] : spread[j];
+                out.split[j - 1] = one ? 0 : share[j];
+            }
+            return out;
+        }
+
+        /// Appends the slots (BIH subtrees) of the least-cost spread of subtree c over at most
+        /// j slots to slots[used...]: c itself where one slot is cheapest, else its children's.
+        void take(std::uint32_t c, int j, std::uint32_t* slots, std::size_t& used) const {
+            const detail::SlotCosts& sc = costs[c];
+            if (sc.kind == detail::SlotCosts::kChain) {
+                take(spread_kids(c).id[0], j, slots, used);
+            } else if (sc.kind == detail::SlotCosts::kLeaf || sc.split[j - 1] == 0) {
+                slots[used++] = c;
+            } else {
+                spread_over(c, sc.split[j - 1], j, slots, used);
+            }
+        }
+
+        /// Subtree n's two children over `first` and j - first slots.
+        void spread_over(std::uint32_t n, int first, int j, std::uint32_t* slots, std::size_t& used) const {
+            const Kids k = spread_kids(n);
+            take(k.id[0], first, slots, used);
+            take(k.id[1], j - first, slots, used);
+        }
+
+        /// The slots of a wide node made at (non-leaf-like) BIH node n: the least-cost spread of its
+        /// subtree over kWideWidth slots (one slot is not a choice here).
+        void node_slots(std::uint32_t n, std::uint32_t* slots, std::size_t& used) const {
+            while (costs[n].kind == detail::SlotCosts::kChain) n = spread_kids(n).id[0];
+            spread_over(n, costs[n].spread, kWideWidth, slots, used);
         }
 
         /// Wide nodes, leaf jobs and record count of one piece of the collapse: the top of the
@@ -914,45 +1027,20 @@ private:
             return w;
         }
 
-        /// Fills wide node `at` with up to kWideWidth subtrees found below BIH node n: the one with
-        /// the largest box is opened until the node is full or none can be opened (Embree's
-        /// collapse); small contiguous subtrees and BIH leaves become leaves.
+        /// Fills wide node `at` with up to kWideWidth subtrees found below BIH node n, those of the
+        /// least-cost spread (detail::SlotCosts: the least total area of wide nodes, found by
+        /// dynamic programming over the BIH as Ylitie et al. 2017 collapse binary BVHs into
+        /// 8-wide ones, where Embree opens the largest box until the node is full); small
+        /// contiguous subtrees and BIH leaves become leaves, the other subtrees wide nodes.
         void make_node(Part& p, std::uint32_t at, std::uint32_t n, std::uint32_t depth) {
             if (depth > kMaxDepth)
                 throw Error("bih::WideTree: the tree is deeper than " + std::to_string(SYLVA_BIH_DEPTH_CAP) +
                             " levels (the builder's cap)");
             p.depth = std::max(p.depth, depth);
-            // Up to kWideWidth subtrees with elements; opening one replaces it by its (<= 2) children.
-            // Each slot's area is found once, when the slot is filled (-1: a leaf, never opened).
-            std::uint32_t slots[kWideWidth + 1];
-            float area[kWideWidth + 1];
+            // The least-cost choice of up to kWideWidth subtrees below n (costs).
+            std::uint32_t slots[kWideWidth];
             std::size_t used = 0;
-            auto keep = [&](std::uint32_t c) {
-                if (facts[c].count == 0) return;
-                bool leaf = leaf_like(c);
-                area[used] = leaf ? -1.0f : detail::half_area(facts[c].box);
-                slots[used++] = c;
-                if (leaf) return;
-                // Its children are read when it is opened, here or in its own wide node: ask for
-                // them now (make_node waits on these loads, facts being tens of MB at 10^6).
-                for (std::uint32_t k : children(c)) {
-                    detail::prefetch(&facts[k]);
-                    detail::prefetch(&tree.nodes[k]);
-                }
-            };
-            for (std::uint32_t c : children(n)) keep(c);
-            while (used < std::size_t{kWideWidth}) {
-                std::size_t best = used;
-                float best_area = -1.0f;
-                for (std::size_t i = 0; i < used; ++i)
-                    if (area[i] > best_area) best_area = area[i], best = i;
-                if (best == used) break;
-                Kids open = children(slots[best]);
-                --used;
-                slots[best] = slots[used];
-                area[best] = area[used];
-                for (std::uint32_t c : open) keep(c);
-            }
+            node_slots(n, slots, used);
             for (std::size_t s = 0; s < used; ++s) {
                 std::uint32_t c = slots[s];
                 if (leaf_like(c)) {
