@@ -423,6 +423,37 @@ TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothin
     CHECK_FALSE(bih::first_hit(empty, Ray{vec3(0.0f), vec3(1.0f, 0.0f, 0.0f)}));
 }
 
+TEST_CASE("a WideTree of a root that only leads to one big BIH leaf holds each element once", "[bih][wide]") {
+    // Hand-made: the root has one child, a leaf of 10 spheres (more than the wide leaf size of
+    // 4, as a leaf at the depth cap has). The collapse's chain of one child ends in a leaf: one
+    // slot, each sphere once (a ray along the row hits all ten, each one time).
+    std::vector<Sphere> row;
+    for (int i = 0; i < 10; ++i)
+        row.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
+    bih::Tree tree;
+    tree.order.resize(row.size());
+    for (std::uint32_t i = 0; i < row.size(); ++i) tree.order[i] = i;
+    bih::Node root;
+    root.axis = 0;
+    root.single = true;
+    root.child[0] = 1;
+    bih::Node leaf;
+    leaf.first = 0;
+    leaf.count = static_cast<std::uint32_t>(row.size());
+    tree.nodes.push_back(root);
+    tree.nodes.push_back(leaf);
+    std::span<const Sphere> es(row);
+    bih::WideTree<Sphere> wide(tree, es, bih::WideConfig{4});
+    CHECK(wide.stats().leaves == 1);
+    const Ray along{vec3(-5.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)};
+    std::vector<bih::ElementHit> hits;
+    bih::all_hits(wide, along, hits);
+    const auto expected = bih::brute_force_hits(es, along, Interval{});
+    REQUIRE(hits.size() == expected.size());
+    CHECK(hits.size() == row.size());
+    for (std::size_t i = 0; i < hits.size(); ++i) CHECK(hits[i].element == expected[i].element);
+}
+
 #ifdef SYLVA_BIH_WIDE_AVX2
 TEST_CASE("the AVX2 node test gives the SSE test's mask and entry t bit for bit", "[bih][wide]") {
     if (!bih::detail::cpu_has_avx2()) {

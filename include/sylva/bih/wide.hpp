@@ -889,6 +889,10 @@ private:
         /// subtree over kWideWidth slots (one slot is not a choice here).
         void node_slots(std::uint32_t n, std::uint32_t* slots, std::size_t& used) const {
             while (costs[n].kind == detail::SlotCosts::kChain) n = spread_kids(n).id[0];
+            if (costs[n].kind == detail::SlotCosts::kLeaf) {  // a chain to one leaf (a big BIH leaf)
+                slots[used++] = n;
+                return;
+            }
             spread_over(n, costs[n].spread, kWideWidth, slots, used);
         }
 
