@@ -133,8 +133,10 @@ TEST_CASE("a cached block kept in 4 KiB pages is reused only inside a scope", "[
 }
 
 TEST_CASE("a WideTree's collapse scratch takes the page choice, its query arrays stay advised", "[memory]") {
-    // 600,000 spheres: the collapse's sorted copy of them (9.6 MB) and its per-node facts are
-    // scratch blocks of >= 8 MiB; the wide nodes are what queries walk.
+    // 600,000 spheres, a wide leaf each (WideConfig{1}): the collapse's sorted copy of them
+    // (9.6 MB), its per-node facts and costs are scratch blocks of >= 8 MiB; the wide nodes
+    // (about 30 MB; 4.8 MB with the default leaf size of 8, since the collapse by least area)
+    // are what queries walk.
     auto spheres = testing::random_spheres(600000, 17);
     std::span<const Sphere> ss(spheres);
     ThreadPool pool(2);
@@ -143,7 +145,7 @@ TEST_CASE("a WideTree's collapse scratch takes the page choice, its query arrays
     memory::configure({.cache_bytes = 0, .huge_pages = true, .small_page_limit_ms = 1e9});  // every probe cheap
     memory::Stats s0 = memory::stats();
     {
-        bih::WideTree<Sphere> wide(tree, ss, bih::WideConfig{}, pool);
+        bih::WideTree<Sphere> wide(tree, ss, bih::WideConfig{1}, pool);
         CHECK(memory::stats().small_page_blocks >= s0.small_page_blocks + 2);
         std::span<const bih::WideNode> nodes = wide.nodes();
         REQUIRE(nodes.size_bytes() >= (std::size_t{8} << 20));
