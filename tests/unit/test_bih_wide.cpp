@@ -667,7 +667,7 @@ double wide_node_area(const bih::WideTree<Sphere>& wide) {
 }  // namespace
 
 TEST_CASE("the collapse groups subtrees into wide nodes of the least total area (enumerated)", "[bih][wide]") {
-    // Small trees (up to ~40 leaves), uniform and in clusters, with leaves of 1, 2 and 4: the
+    // Small trees (24 to 68 spheres), uniform and in clusters, with leaves of 1, 2 and 4: the
     // WideTree's nodes' half-areas sum to the least any grouping reaches (its boxes are padded
     // by ~2^-20 relative: hence the tolerance).
     std::size_t trees = 0, beaten = 0;
