@@ -362,6 +362,23 @@ TEST_CASE("WideTree takes element types without a default constructor", "[bih][w
     CHECK(total > 300);
 }
 
+namespace {
+/// n spheres of radius 0.4 along the x axis, at x = 0, 1, ..., n - 1 (for hand-made trees).
+std::vector<Sphere> sphere_row(int n) {
+    std::vector<Sphere> out;
+    for (int i = 0; i < n; ++i)
+        out.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
+    return out;
+}
+/// A tree with no nodes yet whose order is 0, 1, ..., n - 1.
+bih::Tree tree_in_order(std::size_t n) {
+    bih::Tree t;
+    t.order.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) t.order[i] = i;
+    return t;
+}
+}  // namespace
+
 TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothing", "[bih][wide][bad-input]") {
     auto many = testing::random_spheres(200, 84);
     auto few = testing::random_spheres(50, 85);
@@ -390,12 +407,8 @@ TEST_CASE("WideTree refuses trees that do not fit, and an empty tree hits nothin
 
     // A hand-made chain deeper than the builder's cap (1000 levels): refused, so the query
     // stacks and the refit's recursion stay bounded.
-    std::vector<Sphere> line;
-    for (int i = 0; i < 1000; ++i)
-        line.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
-    bih::Tree deep;
-    deep.order.resize(line.size());
-    for (std::uint32_t i = 0; i < line.size(); ++i) deep.order[i] = i;
+    std::vector<Sphere> line = sphere_row(1000);
+    bih::Tree deep = tree_in_order(line.size());
     // Node 2i is inner, 2i + 1 the leaf of element i, 2i + 2 the rest.
     for (std::uint32_t i = 0; i + 1 < line.size(); ++i) {
         bih::Node inner;
@@ -427,12 +440,8 @@ TEST_CASE("a WideTree of a root that only leads to one big BIH leaf holds each e
     // Hand-made: the root has one child, a leaf of 10 spheres (more than the wide leaf size of
     // 4, as a leaf at the depth cap has). The collapse's chain of one child ends in a leaf: one
     // slot, each sphere once (a ray along the row hits all ten, each one time).
-    std::vector<Sphere> row;
-    for (int i = 0; i < 10; ++i)
-        row.push_back(Sphere{vec3(static_cast<float>(i), 0.0f, 0.0f), 0.4f, vec4(1.0f), 2.0f});
-    bih::Tree tree;
-    tree.order.resize(row.size());
-    for (std::uint32_t i = 0; i < row.size(); ++i) tree.order[i] = i;
+    std::vector<Sphere> row = sphere_row(10);
+    bih::Tree tree = tree_in_order(row.size());
     bih::Node root;
     root.axis = 0;
     root.single = true;
