@@ -329,3 +329,70 @@ TEST_CASE("encodings equal the original encoder's, serial and parallel (golden f
     bih::Tree t = bih::build(std::span<const BoxElement>(elems));
     CHECK_THROWS_AS(bih::encode(t, std::span<const BoxElement>(elems).first(500), BoxBitsPayload{}), Error);
 }
+
+TEST_CASE("fill_below splits small nodes so that their leaves come in full groups of fill_width", "[bih][build]") {
+    // Each subtree of at most fill_below elements (under a bigger parent) has at most one leaf
+    // whose count is not a multiple of fill_width: the left side of every split is one. Without
+    // fill_below (the midpoint split) many have several. Planes and boxes: check_structure.
+    // Slabs: x centres on the integers (15 elements each), y and z within half a unit, so a
+    // node of two slabs (30 elements) splits along x with many centres equal to the left
+    // group's largest (ties broken by position).
+    std::vector<BoxElement> slabs(5000);
+    std::mt19937 rng(33);
+    std::uniform_real_distribution<float> u(0.0f, 0.4f);
+    for (std::size_t i = 0; i < slabs.size(); ++i) {
+        vec3 lo{static_cast<float>(i % 333) - 0.05f, u(rng), u(rng)};
+        slabs[i].box = {lo, lo + vec3(0.1f, 0.1f, 0.1f)};
+    }
+    const std::vector<BoxElement> inputs[3] = {testing::random_boxes(5000, 31), testing::clustered_boxes(5000, 32),
+                                               slabs};
+    for (const std::vector<BoxElement>& elems : inputs) {
+        std::span<const BoxElement> es(elems);
+        std::size_t mixed = 0;     // leaves holding elements of two slabs
+        std::uint32_t largest = 0;  // elements in the largest leaf
+        auto ragged = [&](const bih::Config& cfg) {
+            bih::Tree t = bih::build(es, cfg);
+            check_structure(t, elems, cfg);
+            std::size_t subtrees = 0, bad = 0;
+            // (count, leaves not a multiple of fill_width) of subtree n
+            std::function<std::pair<std::uint32_t, std::uint32_t>(std::uint32_t)> walk = [&](std::uint32_t n) {
+                const bih::Node& node = t.nodes[n];
+                if (node.leaf()) {
+                    std::span<const std::uint32_t> in(t.order.data() + node.first, node.count);
+                    largest = std::max(largest, node.count);
+                    mixed += std::any_of(in.begin(), in.end(), [&](std::uint32_t e) { return e % 333 != in[0] % 333; });
+                    return std::pair<std::uint32_t, std::uint32_t>{node.count, node.count % 4u != 0};
+                }
+                std::pair<std::uint32_t, std::uint32_t> sum{0, 0}, kid[2]{{0, 0}, {0, 0}};
+                for (int c = 0; c < 2; ++c) {
+                    if (node.child[c] == bih::kNoChild || (node.single && c == 1)) continue;
+                    kid[c] = walk(node.child[c]);
+                    sum.first += kid[c].first;
+                    sum.second += kid[c].second;
+                }
+                if (sum.first > 32u)
+                    for (const auto& k : kid)
+                        if (k.first > 4u && k.first <= 32u) {
+                            ++subtrees;
+                            bad += k.second > 1u;
+                        }
+                return sum;
+            };
+            walk(0);
+            REQUIRE(subtrees > 100);
+            return bad;
+        };
+        bih::Config cfg;
+        cfg.max_leaf_elements = 4;
+        cfg.trim_leaves = false;
+        const std::size_t midpoint = ragged(cfg);
+        if (&elems != &inputs[2]) CHECK(midpoint > 50);  // the property is the fill's, not the input's
+        else CHECK(mixed == 0);                            // midpoints fall between the slabs
+        mixed = 0;
+        largest = 0;
+        cfg.fill_below = 32;
+        CHECK(ragged(cfg) == 0);
+        CHECK(largest == 4u);  // no centres coincide: every split makes progress
+        if (&elems == &inputs[2]) CHECK(mixed > 100);  // equal centres went to both sides
+    }
+}

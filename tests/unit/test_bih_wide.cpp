@@ -24,13 +24,16 @@ struct Source {
 };
 
 std::vector<Source> sources() {
-    bih::Config infinite, leaf4;
+    bih::Config infinite, leaf4, filled;
     infinite.empty_children = bih::EmptyChildren::Infinite;
     leaf4.max_leaf_elements = 4;
     leaf4.trim_leaves = false;
+    filled = leaf4;
+    filled.fill_below = 32;
     return {{"default (trim-both, 1 a leaf)", {}},
             {"infinite planes", infinite},
             {"4 a leaf", leaf4},
+            {"4 a leaf, filled below 32", filled},
             {"for_queries (32 a leaf)", bih::Config::for_queries()}};
 }
 
@@ -144,8 +147,9 @@ TEST_CASE("WideConfig chooses the leaf size by the tree's size unless told", "[b
     }
 }
 
-/// build_wide (a BIH with leaves of the wide leaf size, then the collapse) against the WideTree
-/// of the 4-a-leaf BIH: the same nodes, leaves and depth, and the same answers.
+/// build_wide (a BIH of wide_source_config, then the collapse) against that BIH collapsed by
+/// hand (the same nodes, leaves and depth) and the WideTree of the 4-a-leaf BIH (the same
+/// answers).
 template <class E>
 void check_build_wide(const std::vector<E>& elems, const std::vector<Ray>& rays) {
     std::span<const E> es(elems);
@@ -154,18 +158,21 @@ void check_build_wide(const std::vector<E>& elems, const std::vector<Ray>& rays)
     CHECK(src.max_leaf_elements == bih::WideConfig{}.leaf_size(es.size()));
     CHECK_FALSE(src.trim_leaves);
     CHECK(bih::wide_source_config(es.size(), bih::WideConfig{13}).max_leaf_elements == 13u);
+    CHECK(src.fill_below == 32u);
+    CHECK(src.fill_width == 4u);
     bih::Config leaf4;
     leaf4.max_leaf_elements = 4;
     leaf4.trim_leaves = false;
     const bih::WideTree<E> from_leaf4(bih::build(es, leaf4, pool), es, bih::WideConfig{}, pool);
+    const bih::WideTree<E> from_source(bih::build(es, src, pool), es, bih::WideConfig{}, pool);
     const bih::WideTree<E> wide = bih::build_wide(es, bih::WideConfig{}, pool);
     const bih::WideTree<E> serial = bih::build_wide(es);
     for (const bih::WideTree<E>* w : {&wide, &serial}) {
         REQUIRE(w->stats().nodes > 0);
-        CHECK(w->stats().nodes == from_leaf4.stats().nodes);
-        CHECK(w->stats().leaves == from_leaf4.stats().leaves);
-        CHECK(w->stats().depth == from_leaf4.stats().depth);
-        CHECK(w->stats().bytes == from_leaf4.stats().bytes);
+        CHECK(w->stats().nodes == from_source.stats().nodes);
+        CHECK(w->stats().leaves == from_source.stats().leaves);
+        CHECK(w->stats().depth == from_source.stats().depth);
+        CHECK(w->stats().bytes == from_source.stats().bytes);
         check_structure(*w, es);
     }
     std::vector<bih::ElementHit> hits, expected;
@@ -184,7 +191,7 @@ void check_build_wide(const std::vector<E>& elems, const std::vector<Ray>& rays)
     CHECK(total > rays.size());
 }
 
-TEST_CASE("build_wide makes the WideTree of the 4-a-leaf BIH from a BIH with leaves of its leaf size",
+TEST_CASE("build_wide collapses the BIH of wide_source_config and answers as the 4-a-leaf BIH's WideTree",
           "[bih][wide]") {
     SECTION("40,000 spheres: leaves of 8, half the BIH") {
         auto spheres = testing::random_spheres(40000, 91);

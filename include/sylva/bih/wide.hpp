@@ -140,10 +140,7 @@ struct SlotCosts {
 };
 
 /// Surface-area measure of the collapse's costs (half the area suffices).
-inline float half_area(const Aabb& b) {
-    vec3 e = glm::max(b.hi - b.lo, vec3(0.0f));
-    return e.x * e.y + e.y * e.z + e.z * e.x;
-}
+inline float half_area(const Aabb& b) { return b.half_area(); }
 
 /// b grown outward by a few ulps of its magnitude, so that rounding in the SIMD slab test
 /// never drops a ray the exact element test would hit (grazing rays, axis-parallel rays).

@@ -29,6 +29,11 @@ struct Aabb {
         vec3 e = extent();
         return empty() ? 0.0f : e.x * e.y * e.z;
     }
+    /// Half the surface area (0 for an empty box): the surface-area heuristic's measure.
+    [[nodiscard]] float half_area() const {
+        vec3 e = glm::max(extent(), vec3(0.0f));
+        return e.x * e.y + e.y * e.z + e.z * e.x;
+    }
     void extend(const Aabb& b) {
         lo = glm::min(lo, b.lo);
         hi = glm::max(hi, b.hi);
