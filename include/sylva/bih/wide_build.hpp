@@ -37,7 +37,7 @@ namespace sylva::bih {
     Config c;
     c.max_leaf_elements = wide.leaf_size(elements);
     c.trim_leaves = false;
-    c.fill_below = 32;  // measured 16 / 32 / 64 (README, Known gaps: first hit)
+    c.fill_below = 32;  // 16 and 32 measured (README, "Leaves that fill the packets")
     c.fill_width = 4;   // a packet of four spheres
     return c;
 }
