@@ -467,13 +467,7 @@ private:
         s.axis = box.longest_axis();
         float cut = box.lo[s.axis] * 0.5f + box.hi[s.axis] * 0.5f;
         s.mid = partition(begin, end, s.axis, cut, s.plane[0], s.plane[1]);
-        if (s.mid != begin && s.mid != end) {
-            s.kind = Split::Two;
-            s.box[0] = s.box[1] = box;
-            s.box[0].hi[s.axis] = s.plane[0];
-            s.box[1].lo[s.axis] = s.plane[1];
-            return s;
-        }
+        if (s.mid != begin && s.mid != end) return two_children(s, box);
         return one_sided(begin, end, box, s);
     }
 
@@ -539,8 +533,7 @@ private:
     /// std::nth_element on the records took a fifth of build_wide at 10^5 spheres), and the
     /// records move once, by partition_by_sides.
     Split filling_split(std::size_t begin, std::size_t end, const Aabb& box) {
-        Aabb c;
-        for (std::size_t i = begin; i < end; ++i) c.extend(vec3(p_[i].center(0), p_[i].center(1), p_[i].center(2)));
+        const Aabb c = centres_box(begin, end);
         Split s;
         s.axis = c.longest_axis();
         const int a = s.axis;
@@ -553,11 +546,7 @@ private:
         std::uint8_t* right = side_ + begin;
         for (std::size_t k = 0; k < n; ++k) right[k] = rank_among(key, n, k) >= left;
         s.mid = begin + partition_by_sides(p_ + begin, n, a, right, s.plane[0], s.plane[1]);
-        s.kind = Split::Two;
-        s.box[0] = s.box[1] = box;
-        s.box[0].hi[a] = s.plane[0];
-        s.box[1].lo[a] = s.plane[1];
-        return s;
+        return two_children(s, box);
     }
 
     /// key[k]'s position in key[0, n) sorted by value, equal values in index order.
@@ -570,17 +559,25 @@ private:
 
     /// Box already tight: split at the middle of the centres' extent; Leaf if they coincide.
     Split centroid_split(std::size_t begin, std::size_t end, const Aabb& box) {
-        Aabb c;
-        for (std::size_t i = begin; i < end; ++i) {
-            const Prim& p = p_[i];
-            c.extend(vec3(p.center(0), p.center(1), p.center(2)));
-        }
+        const Aabb c = centres_box(begin, end);
         Split s;
         s.axis = c.longest_axis();
         if (!(c.hi[s.axis] > c.lo[s.axis])) return s;
         float cut = c.lo[s.axis] * 0.5f + c.hi[s.axis] * 0.5f;
         if (!(cut < c.hi[s.axis])) cut = c.lo[s.axis];
         s.mid = partition(begin, end, s.axis, cut, s.plane[0], s.plane[1]);
+        return two_children(s, box);
+    }
+
+    /// The box of the centres of records [begin, end).
+    Aabb centres_box(std::size_t begin, std::size_t end) const {
+        Aabb c;
+        for (std::size_t i = begin; i < end; ++i) c.extend(vec3(p_[i].center(0), p_[i].center(1), p_[i].center(2)));
+        return c;
+    }
+
+    /// s as a split into two children: each takes `box` cut at its own plane.
+    static Split two_children(Split s, const Aabb& box) {
         s.kind = Split::Two;
         s.box[0] = s.box[1] = box;
         s.box[0].hi[s.axis] = s.plane[0];

@@ -139,9 +139,6 @@ struct SlotCosts {
     static constexpr std::uint8_t kLeaf = 0, kChain = 1, kSpread = 2;
 };
 
-/// Surface-area measure of the collapse's costs (half the area suffices).
-inline float half_area(const Aabb& b) { return b.half_area(); }
-
 /// b grown outward by a few ulps of its magnitude, so that rounding in the SIMD slab test
 /// never drops a ray the exact element test would hit (grazing rays, axis-parallel rays).
 inline Aabb padded(const Aabb& b) {
@@ -853,7 +850,7 @@ private:
             }
             out.kind = SlotCosts::kSpread;
             out.spread = share[kWideWidth];
-            out.least[0] = detail::half_area(facts[n].box) + spread[kWideWidth];  // a wide node here
+            out.least[0] = facts[n].box.half_area() + spread[kWideWidth];  // a wide node here
             for (int j = 2; j <= kWideWidth; ++j) {
                 const bool one = out.least[0] <= spread[j];
                 out.least[j - 1] = one ? out.least[0] : spread[j];
