@@ -159,26 +159,25 @@ Aabb gather_prims(std::span<const E> elements, Prim* prims, X& exec) {
     return all;
 }
 
-/// Partitions a[0, n) in place by centre <= cut along `axis` and returns the left count;
-/// left_max folds the his of the left records, right_min the los of the right ones. Every side
-/// is computed first (into `right`), then one branch-free Lomuto pass swaps each record with the
-/// first one not known to go left: the left records keep their order, the right ones are
-/// rotated among themselves. Why Lomuto: each step's addresses depend only on a running count
-/// (one add), where the classic two-ended loop (Kinkelin 3.1: swap a right record with the last
-/// unexamined one and examine that next) chained every step's loads through the previous side,
-/// 4-10 ns a record against 2.5 here (README, "A partition that does not wait on itself"). The
-/// sets on each side are the same, so the nodes and planes are; only the order of the elements
-/// within a leaf of several differs from the classic loop's. partition_by_sides is that pass
-/// over sides the caller computed (right[k] != 0: a[k] goes right); partition_in_place computes
-/// them from the cut.
-inline std::size_t partition_by_sides(Prim* a, std::size_t n, int axis, const std::uint8_t* right,
-                                      float& left_max, float& right_min) {
+/// Partitions a[0, n) in place, record k going right where goes_right(k, a[k] as it was) is
+/// true, and returns the left count; left_max folds the his of the left records, right_min the
+/// los of the right ones. One branch-free Lomuto pass swaps each record with the first one not
+/// known to go left: the left records keep their order, the right ones are rotated among
+/// themselves. Why Lomuto: each step's addresses depend only on a running count (one add),
+/// where the classic two-ended loop (Kinkelin 3.1: swap a right record with the last unexamined
+/// one and examine that next) chained every step's loads through the previous step's side, 4-10
+/// ns a record against 2.5 here (README, "A partition that does not wait on itself"). The sets
+/// on each side are the same, so the nodes and planes are; only the order of the elements
+/// within a leaf of several differs from the classic loop's.
+template <class GoesRight>
+SYLVA_FORCEINLINE std::size_t lomuto_partition(Prim* a, std::size_t n, int axis, GoesRight goes_right,
+                                               float& left_max, float& right_min) {
     const float inf = std::numeric_limits<float>::infinity();
     float lmax = -inf, rmin = inf;
     std::size_t i = 0;  // [0, i) go left; [i, k) go right
     for (std::size_t k = 0; k < n; ++k) {
         const Prim x = a[k], y = a[i];
-        const std::size_t is_right = right[k];
+        const std::size_t is_right = goes_right(k, x) ? 1u : 0u;
         const float hi[2] = {x.hi[axis], -inf}, lo[2] = {inf, x.lo[axis]};
         lmax = std::max(lmax, hi[is_right]);  // max(x, -inf) and min(x, +inf) keep x
         rmin = std::min(rmin, lo[is_right]);
@@ -191,10 +190,19 @@ inline std::size_t partition_by_sides(Prim* a, std::size_t n, int axis, const st
     return i;
 }
 
-inline std::size_t partition_in_place(Prim* a, std::size_t n, int axis, float cut, std::uint8_t* right,
+/// lomuto_partition over sides the caller computed: right[k] != 0 sends a[k] right.
+inline std::size_t partition_by_sides(Prim* a, std::size_t n, int axis, const std::uint8_t* right,
                                       float& left_max, float& right_min) {
-    for (std::size_t k = 0; k < n; ++k) right[k] = !(a[k].center(axis) <= cut);
-    return partition_by_sides(a, n, axis, right, left_max, right_min);
+    return lomuto_partition(a, n, axis, [right](std::size_t k, const Prim&) { return right[k] != 0; }, left_max,
+                            right_min);
+}
+
+/// lomuto_partition by centre <= cut along `axis` (the side taken in the same pass: a separate
+/// pass writing the sides first cost 5-10 % of a build).
+inline std::size_t partition_in_place(Prim* a, std::size_t n, int axis, float cut, float& left_max,
+                                      float& right_min) {
+    return lomuto_partition(a, n, axis, [axis, cut](std::size_t, const Prim& x) { return !(x.center(axis) <= cut); },
+                            left_max, right_min);
 }
 
 /// Where a parallel build writes the nodes of its serial chunks: a region of the tree's own
@@ -309,10 +317,10 @@ public:
     /// `arena` holds the chunks' nodes of a parallel build (null: each chunk a LargeVector);
     /// `regions`, where not null, is the tree's node array, in which serial chunks get regions
     /// at `rate` (RegionRate).
-    SubtreeBuilder(Prim* prims, std::uint32_t* order, std::uint8_t* side, const Config& cfg, X& exec,
+    SubtreeBuilder(Prim* prims, std::uint32_t* order, const Config& cfg, X& exec,
                    std::atomic<std::size_t>& placed, std::size_t total, memory::RunArena<Node>* arena,
                    Node* regions = nullptr, RegionRate rate = {})
-        : p_(prims), order_(order), side_(side), cfg_(cfg), exec_(exec), placed_(placed), total_(total),
+        : p_(prims), order_(order), cfg_(cfg), exec_(exec), placed_(placed), total_(total),
           arena_(arena), regions_(regions), rate_(rate) {}
 
     /// Builds the subtree over records [begin, end) with box `box` at `depth` into `out`;
@@ -523,9 +531,9 @@ private:
 
     /// fill_below's split: the first multiple of fill_width at or above half of the elements go
     /// left, by centre along the centres' longest axis; Leaf where the centres coincide. The
-    /// centres are copied into a small array, each one's rank is counted there (no branches:
-    /// std::nth_element on the records took a fifth of build_wide at 10^5 spheres), and the
-    /// records move once, by partition_by_sides.
+    /// centres are copied into a small array, the centres below each one are counted there (no
+    /// branches: std::nth_element on the records took a fifth of build_wide at 10^5 spheres),
+    /// and the records move once, by partition_by_sides.
     Split filling_split(std::size_t begin, std::size_t end, const Aabb& box) {
         const Aabb c = centres_box(begin, end);
         Split s;
@@ -537,8 +545,23 @@ private:
         if (left >= n) return Split{};
         float key[kFillMax];
         for (std::size_t k = 0; k < n; ++k) key[k] = p_[begin + k].center(a);
-        std::uint8_t* right = side_ + begin;
-        for (std::size_t k = 0; k < n; ++k) right[k] = rank_among(key, n, k) >= left;
+        // Each centre's count of smaller ones, in one pass. A rank is at least that count, so
+        // the `left` centres of rank < left are among those with fewer than `left` below them:
+        // if exactly `left` have, they are the ones. Otherwise equal centres straddle the split,
+        // and the ranks (rank_among) break the tie by position.
+        std::uint32_t below[kFillMax];
+        std::size_t under = 0;
+        for (std::size_t k = 0; k < n; ++k) {
+            std::uint32_t b = 0;
+            for (std::size_t j = 0; j < n; ++j) b += key[j] < key[k] ? 1u : 0u;
+            below[k] = b;
+            under += b < left ? 1u : 0u;
+        }
+        std::uint8_t right[kFillMax];
+        if (under == left)
+            for (std::size_t k = 0; k < n; ++k) right[k] = below[k] >= left;
+        else
+            for (std::size_t k = 0; k < n; ++k) right[k] = rank_among(key, n, k) >= left;
         s.mid = begin + partition_by_sides(p_ + begin, n, a, right, s.plane[0], s.plane[1]);
         return two_children(s, box);
     }
@@ -581,12 +604,11 @@ private:
 
     std::size_t partition(std::size_t begin, std::size_t end, int axis, float cut, float& left_max,
                           float& right_min) {
-        return begin + partition_in_place(p_ + begin, end - begin, axis, cut, side_ + begin, left_max, right_min);
+        return begin + partition_in_place(p_ + begin, end - begin, axis, cut, left_max, right_min);
     }
 
     Prim* p_;
     std::uint32_t* order_;
-    std::uint8_t* side_;  ///< scratch: the sides of a partition, one per element
     const Config& cfg_;
     X& exec_;
     std::atomic<std::size_t>& placed_;
@@ -817,7 +839,6 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
         // assembly, which may reuse it). The records come first: a bad element throws before
         // anything of `t` changes (a rebuild keeps its tree).
         memory::LargeBuffer<detail::Prim> prims(n);
-        memory::LargeBuffer<std::uint8_t> side(n);
         const Aabb bounds = detail::gather_prims(elements, prims.data(), exec);
         t.stats = {};
         t.bounds = bounds;
@@ -833,7 +854,7 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
             t.nodes.resize(room);
         }
         std::atomic<std::size_t> placed{0};
-        detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), side.data(), cfg, exec, placed, n,
+        detail::SubtreeBuilder<X> builder(prims.data(), t.order.data(), cfg, exec, placed, n,
                                           arena ? &*arena : nullptr, in_regions ? t.nodes.data() : nullptr, regions);
         builder.build(root, 0, n, t.bounds, 0);
     }
