@@ -548,7 +548,7 @@ private:
         // Each centre's count of smaller ones, in one pass. A rank is at least that count, so
         // the `left` centres of rank < left are among those with fewer than `left` below them:
         // if exactly `left` have, they are the ones. Otherwise equal centres straddle the split,
-        // and the ranks (rank_among) break the tie by position.
+        // and the ranks (the count below plus equal_before) break the tie by position.
         std::uint32_t below[kFillMax];
         std::size_t under = 0;
         for (std::size_t k = 0; k < n; ++k) {
@@ -561,17 +561,17 @@ private:
         if (under == left)
             for (std::size_t k = 0; k < n; ++k) right[k] = below[k] >= left;
         else
-            for (std::size_t k = 0; k < n; ++k) right[k] = rank_among(key, n, k) >= left;
+            for (std::size_t k = 0; k < n; ++k) right[k] = below[k] + equal_before(key, k) >= left;
         s.mid = begin + partition_by_sides(p_ + begin, n, a, right, s.plane[0], s.plane[1]);
         return two_children(s, box);
     }
 
-    /// key[k]'s position in key[0, n) sorted by value, equal values in index order.
-    static std::size_t rank_among(const float* key, std::size_t n, std::size_t k) {
-        std::size_t below = 0;
-        for (std::size_t j = 0; j < n; ++j) below += key[j] < key[k];
-        for (std::size_t j = 0; j < k; ++j) below += key[j] == key[k];
-        return below;
+    /// How many of key[0, k) equal key[k]: with the count of smaller keys, key[k]'s position in
+    /// the keys sorted by value, equal values in index order.
+    static std::size_t equal_before(const float* key, std::size_t k) {
+        std::size_t equal = 0;
+        for (std::size_t j = 0; j < k; ++j) equal += key[j] == key[k] ? 1u : 0u;
+        return equal;
     }
 
     /// Box already tight: split at the middle of the centres' extent; Leaf if they coincide.
