@@ -111,19 +111,13 @@ struct WideStats {
 
 namespace detail {
 
-/// One BIH subtree after the refit: the tight box of its elements, how many, and where they
-/// start in the tree's order (a subtree of the in-place builder is one contiguous run).
-struct SubtreeFacts {
-    Aabb box;
-    std::uint32_t first = 0, count = 0;
-    bool contiguous = true;
-};
-
 /// The least cost of one BIH subtree as at most 1, 2, ..., kWideWidth slots of a wide node:
 /// least[i - 1] for i slots (non-increasing in i). The cost is the surface-area heuristic's
 /// with the leaves fixed (they are the BIH's): the sum of the half-areas of the wide nodes the
 /// subtree becomes, as a ray tests a wide node with a chance proportional to its area. One slot
-/// is the subtree as a leaf (cost 0) or as a wide node of its own.
+/// is the subtree as a leaf (cost 0) or as a wide node of its own. Only a node's parent reads
+/// its least costs and leaf count (the refit hands them up); what the collapse keeps of it is
+/// the choice, packed into the node's SubtreeFacts::plan.
 struct SlotCosts {
     float least[kWideWidth];
     /// For i >= 2 slots: how many of them the first child's subtree takes in the least-cost
@@ -137,6 +131,38 @@ struct SlotCosts {
     /// that many slots it costs 0, every leaf in a slot of its own.
     std::uint8_t leaves;
     static constexpr std::uint8_t kLeaf = 0, kChain = 1, kSpread = 2;
+};
+
+/// One BIH subtree after the refit: the tight box of its elements, how many, where they start
+/// in the tree's order (a subtree of the in-place builder is one contiguous run), and the
+/// collapse's choice for it (SlotCosts without the costs: 36 bytes a BIH node instead of the
+/// 80 that the facts and a stored SlotCosts took, so a collapse writes 44 bytes a node less of
+/// fresh memory). `plan`, 27 of its 32 bits used:
+///   bits 0-1    kind: SlotCosts::kLeaf, kChain or kSpread
+///   bit  2      contiguous: its elements are order[first, first + count)
+///   bits 3-5    spread: the first child's share of the least-cost spread over kWideWidth slots
+///   bits 6-26   split[j - 1] for j = 2 ... kWideWidth slots, 3 bits each at bit 6 + 3 (j - 2)
+///               (split[0] is 0: one slot is the subtree itself)
+/// Shares are 1 ... kWideWidth - 1 (the second child takes at least one slot), so 3 bits hold them.
+struct SubtreeFacts {
+    static_assert(kWideWidth == 8, "plan packs slot shares of 3 bits");
+    static constexpr std::uint32_t kContiguous = 1u << 2;
+    Aabb box;
+    std::uint32_t first = 0, count = 0;
+    std::uint32_t plan = kContiguous;
+
+    [[nodiscard]] std::uint8_t kind() const { return static_cast<std::uint8_t>(plan & 3u); }
+    [[nodiscard]] bool contiguous() const { return (plan & kContiguous) != 0; }
+    [[nodiscard]] int spread() const { return static_cast<int>((plan >> 3) & 7u); }
+    /// The first child's share over j >= 2 slots, 0 where one slot costs no more.
+    [[nodiscard]] int split(int j) const { return static_cast<int>((plan >> (6 + 3 * (j - 2))) & 7u); }
+    void set_contiguous(bool c) { plan = c ? plan | kContiguous : plan & ~kContiguous; }
+    /// Keeps the contiguous bit, replaces the choice by c's.
+    void set_choice(const SlotCosts& c) {
+        std::uint32_t p = (plan & kContiguous) | c.kind | (std::uint32_t{c.spread} << 3);
+        for (int j = 2; j <= kWideWidth; ++j) p |= std::uint32_t{c.split[j - 1]} << (6 + 3 * (j - 2));
+        plan = p;
+    }
 };
 
 /// b grown outward by a few ulps of its magnitude, so that rounding in the SIMD slab test
@@ -301,7 +327,7 @@ public:
                 throw Error("bih::WideTree: the tree's order refers to element " + std::to_string(e) + " of the " +
                             std::to_string(elements.size()) + " given");
         if (tree.nodes.empty() || tree.order.empty()) return;
-        Builder b{*this, tree, elements, cfg.leaf_size(tree.order.size()), {}, {}, 0, {}, {}, nullptr};
+        Builder b{*this, tree, elements, cfg.leaf_size(tree.order.size()), {}, {}, 0, {}};
         b.refit(exec);
         b.make(exec);
         b.fill(exec);
@@ -658,10 +684,6 @@ private:
         /// 2.41-2.48). Absent for other element types and small trees (parallel()), whose
         /// elements stay in cache: there the copy only cost a first build.
         std::optional<memory::LargeBuffer<SphereRecord>> sorted;
-        /// The collapse's cost of each BIH subtree (detail::SlotCosts), written by subtree_facts
-        /// (children first) before make() reads them: costs[n] for BIH node n.
-        std::optional<memory::LargeBuffer<detail::SlotCosts>> cost_buffer;
-        detail::SlotCosts* costs = nullptr;
         /// Centre and radius of sphere k of the tree's order.
         [[nodiscard]] SphereRecord sphere_at(std::size_t k) const
             requires kSpheres
@@ -677,8 +699,9 @@ private:
             }
         }
 
-        /// Tight boxes, counts and order ranges of every BIH subtree the root reaches, children
-        /// before parents (subtree_facts), after the links are checked (check_links).
+        /// Tight boxes, counts, order ranges and the collapse's choice of every BIH subtree the
+        /// root reaches, children before parents (subtree_facts), after the links are checked
+        /// (check_links).
         template <class X>
         void refit(X& exec) {
             // Scratch of the collapse (sorted, facts, has_parent: written once, read once) keeps
@@ -697,10 +720,8 @@ private:
             }
             memory::prefault<detail::SubtreeFacts>(tree.nodes.size(), exec);
             facts.assign(tree.nodes.size(), {});
-            memory::prefault<detail::SlotCosts>(tree.nodes.size(), exec);
-            costs = cost_buffer.emplace(tree.nodes.size()).data();
             check_links();
-            subtree_facts(0, 0, parallel() ? kParallelDepth : 0u, exec);
+            (void)subtree_facts(0, 0, parallel() ? kParallelDepth : 0u, exec);
         }
 
         /// Throws when a link leaves the tree or a node is reached twice (a cycle, a shared
@@ -725,29 +746,31 @@ private:
         /// Levels of the BIH whose two subtrees subtree_facts refits in parallel.
         static constexpr std::uint32_t kParallelDepth = 6;
 
-        /// Fills facts for BIH subtree n (at BIH depth `depth`), children first; below a depth
-        /// of `fork` (0: none) the two subtrees run in parallel on `exec`.
+        /// Fills facts for BIH subtree n (at BIH depth `depth`), children first, and returns its
+        /// costs (for its parent's); below a depth of `fork` (0: none) the two subtrees run in
+        /// parallel on `exec`.
         template <class X>
-        void subtree_facts(std::uint32_t n, std::uint32_t depth, std::uint32_t fork, X& exec) {
+        detail::SlotCosts subtree_facts(std::uint32_t n, std::uint32_t depth, std::uint32_t fork, X& exec) {
             if (depth > kMaxDepth)
                 throw Error("bih::WideTree: the tree is deeper than " + std::to_string(SYLVA_BIH_DEPTH_CAP) +
                             " levels (the builder's cap)");
             const Node& node = tree.nodes[n];
+            detail::SlotCosts kid[2];  // the costs of children(n), in its order
             if (node.leaf()) {
                 if (std::uint64_t{node.first} + node.count > tree.order.size())
                     throw Error("bih::WideTree: leaf " + std::to_string(n) + " refers past the tree's order");
-                facts[n] = fact_of(n);
-                costs[n] = costs_of(n);
-                return;
+            } else {
+                const Kids k = children(n);
+                if (k.n == 2 && depth < fork)
+                    exec.invoke([&] { kid[0] = subtree_facts(k.id[0], depth + 1, fork, exec); },
+                                [&] { kid[1] = subtree_facts(k.id[1], depth + 1, fork, exec); });
+                else
+                    for (std::uint32_t i = 0; i < k.n; ++i) kid[i] = subtree_facts(k.id[i], depth + 1, fork, exec);
             }
-            Kids k = children(n);
-            if (k.n == 2 && depth < fork)
-                exec.invoke([&] { subtree_facts(k.id[0], depth + 1, fork, exec); },
-                            [&] { subtree_facts(k.id[1], depth + 1, fork, exec); });
-            else
-                for (std::uint32_t c : k) subtree_facts(c, depth + 1, fork, exec);
             facts[n] = fact_of(n);
-            costs[n] = costs_of(n);
+            const detail::SlotCosts c = costs_of(n, kid);
+            facts[n].set_choice(c);
+            return c;
         }
 
         void check_node(std::uint32_t n) const {
@@ -783,25 +806,26 @@ private:
                 return f;
             }
             std::uint32_t lo = std::numeric_limits<std::uint32_t>::max(), hi = 0;
+            bool contiguous = true;
             for (std::uint32_t c : children(n)) {
                 const detail::SubtreeFacts& k = facts[c];
                 f.box.extend(k.box);
                 f.count += k.count;
-                f.contiguous = f.contiguous && k.contiguous;
+                contiguous = contiguous && k.contiguous();
                 if (k.count) {
                     lo = std::min(lo, k.first);
                     hi = std::max(hi, k.first + k.count);
                 }
             }
             f.first = f.count ? lo : 0u;
-            f.contiguous = f.contiguous && (f.count == 0 || hi - lo == f.count);
+            f.set_contiguous(contiguous && (f.count == 0 || hi - lo == f.count));
             return f;
         }
 
         /// A subtree that becomes one leaf: a BIH leaf, or a small contiguous subtree.
         [[nodiscard]] bool leaf_like(std::uint32_t n) const {
             const detail::SubtreeFacts& f = facts[n];
-            return tree.nodes[n].leaf() || (f.contiguous && f.count <= leaf_size);
+            return tree.nodes[n].leaf() || (f.contiguous() && f.count <= leaf_size);
         }
 
         /// The non-empty children of BIH node n (none for a leaf).
@@ -812,23 +836,28 @@ private:
             return k;
         }
 
-        /// costs[n] from its children's (children first): least[j - 1] = min(least[0], the
-        /// least sum over a of the first child's least[a - 1] and the second's least[j - a - 1]).
-        [[nodiscard]] detail::SlotCosts costs_of(std::uint32_t n) const {
+        /// Subtree n's costs from those of children(n), `kid` in its order (facts[n] and the
+        /// children's written): least[j - 1] = min(least[0], the least sum over a of the first
+        /// non-empty child's least[a - 1] and the second's least[j - a - 1]).
+        [[nodiscard]] detail::SlotCosts costs_of(std::uint32_t n, const detail::SlotCosts* kid) const {
             using detail::SlotCosts;
             SlotCosts out{};
             if (leaf_like(n) || facts[n].count == 0) {  // kLeaf, cost 0
                 out.leaves = 1;
                 return out;
             }
-            const Kids k = spread_kids(n);
-            if (k.n == 1) {
-                out = costs[k.id[0]];
+            const SlotCosts* spread_kid[2];  // spread_kids(n)'s costs
+            std::uint32_t spread_n = 0;
+            const Kids all = children(n);
+            for (std::uint32_t i = 0; i < all.n; ++i)
+                if (facts[all.id[i]].count != 0) spread_kid[spread_n++] = &kid[i];
+            if (spread_n == 1) {
+                out = *spread_kid[0];
                 out.kind = SlotCosts::kChain;
                 return out;
             }
-            const SlotCosts& l = costs[k.id[0]];
-            const SlotCosts& r = costs[k.id[1]];
+            const SlotCosts& l = *spread_kid[0];
+            const SlotCosts& r = *spread_kid[1];
             float spread[kWideWidth + 1];  // spread[j]: the least cost over j slots, j >= 2
             std::uint8_t share[kWideWidth + 1];
             const int flat = l.leaves + r.leaves;  // from this many slots on: every leaf in one
@@ -862,13 +891,13 @@ private:
         /// Appends the slots (BIH subtrees) of the least-cost spread of subtree c over at most
         /// j slots to slots[used...]: c itself where one slot is cheapest, else its children's.
         void take(std::uint32_t c, int j, std::uint32_t* slots, std::size_t& used) const {
-            const detail::SlotCosts& sc = costs[c];
-            if (sc.kind == detail::SlotCosts::kChain) {
+            const detail::SubtreeFacts& f = facts[c];
+            if (f.kind() == detail::SlotCosts::kChain) {
                 take(spread_kids(c).id[0], j, slots, used);
-            } else if (sc.kind == detail::SlotCosts::kLeaf || sc.split[j - 1] == 0) {
+            } else if (f.kind() == detail::SlotCosts::kLeaf || j < 2 || f.split(j) == 0) {
                 slots[used++] = c;
             } else {
-                spread_over(c, sc.split[j - 1], j, slots, used);
+                spread_over(c, f.split(j), j, slots, used);
             }
         }
 
@@ -882,12 +911,12 @@ private:
         /// The slots of a wide node made at (non-leaf-like) BIH node n: the least-cost spread of its
         /// subtree over kWideWidth slots (one slot is not a choice here).
         void node_slots(std::uint32_t n, std::uint32_t* slots, std::size_t& used) const {
-            while (costs[n].kind == detail::SlotCosts::kChain) n = spread_kids(n).id[0];
-            if (costs[n].kind == detail::SlotCosts::kLeaf) {  // a chain to one leaf (a big BIH leaf)
+            while (facts[n].kind() == detail::SlotCosts::kChain) n = spread_kids(n).id[0];
+            if (facts[n].kind() == detail::SlotCosts::kLeaf) {  // a chain to one leaf (a big BIH leaf)
                 slots[used++] = n;
                 return;
             }
-            spread_over(n, costs[n].spread, kWideWidth, slots, used);
+            spread_over(n, facts[n].spread(), kWideWidth, slots, used);
         }
 
         /// Wide nodes, leaf jobs and record count of one piece of the collapse: the top of the
