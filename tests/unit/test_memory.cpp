@@ -183,30 +183,68 @@ TEST_CASE("large blocks are 2 MiB aligned, cached on free and reused warm", "[me
     memory::configure(keep);
 }
 
-TEST_CASE("blocks of 64 KiB to 1 MiB are mapped in 4 KiB pages, cached on free and reused warm", "[memory]") {
+TEST_CASE("blocks of 16 KiB to 1 MiB are carved from 2 MiB chunks, cached on free and reused warm", "[memory]") {
     memory::Config keep = memory::config();
-    memory::configure({.cache_bytes = std::size_t{64} << 20, .huge_pages = true});
+    // limit 0: a chunk's huge page is taken whatever it costs, so the pool stays on wherever
+    // the kernel gives huge pages at all (THP "madvise" or "always").
+    memory::configure({.cache_bytes = std::size_t{64} << 20, .huge_pages = true, .small_page_limit_ms = 0.0});
     memory::release_cache();
     memory::Stats s0 = memory::stats();
     const void* first = nullptr;
     {
-        LargeVector<std::uint8_t> a(200000, 3);  // 200 KB: a block of 256 KiB
+        LargeVector<std::uint8_t> a(200000, 3);  // 200 KB: a block of 208 KiB (13 x 16 KiB)
         first = a.data();
-        CHECK(address(a.data()) % 4096 == 0);
+        memory::release_cache();  // the rest of a chunk a's carve moved on from, if it did
+        CHECK(address(a.data()) % memory::kCachedBlock == 0);
+        CHECK(a[199999] == 3u);
     }
     memory::Stats s1 = memory::stats();
     CHECK(s1.maps == s0.maps + 1);
-    CHECK(s1.cached_bytes == std::size_t{256} << 10);
+    CHECK(s1.cached_bytes == std::size_t{208} << 10);
     {
         LargeVector<std::uint8_t> b(150000);  // fits the cached block (at most twice its size)
         CHECK(b.data() == first);
         CHECK(b[149999] == 0u);
-        LargeVector<std::uint8_t> c(60000);  // under 64 KiB: operator new's
+        LargeVector<std::uint8_t> c(10000);  // under 16 KiB: operator new's
         CHECK(c.data() != first);
         memory::Stats s2 = memory::stats();
         CHECK(s2.reuses == s1.reuses + 1);
         CHECK(s2.maps == s1.maps);
         CHECK(s2.cached_bytes == 0);
+    }
+    {
+        // Fresh blocks, beyond what one chunk holds: none overlaps another, each keeps its bytes.
+        std::vector<LargeVector<std::uint32_t>> blocks;
+        const std::size_t chunks = memory::stats().pool_chunks;
+        for (std::uint32_t k = 0; k < 12; ++k) blocks.emplace_back(60000 + 1000 * k, k);  // 240-284 KB each
+        for (std::size_t i = 0; i < blocks.size(); ++i) {
+            const auto lo = address(blocks[i].data()), hi = lo + blocks[i].size() * sizeof(std::uint32_t);
+            for (std::size_t j = 0; j < blocks.size(); ++j) {
+                if (j == i) continue;
+                const auto lo2 = address(blocks[j].data()), hi2 = lo2 + blocks[j].size() * sizeof(std::uint32_t);
+                CHECK((hi <= lo2 || hi2 <= lo));
+            }
+            CHECK(std::all_of(blocks[i].begin(), blocks[i].end(), [&](std::uint32_t v) { return v == i; }));
+        }
+        memory::Stats s3 = memory::stats();
+        if (!s3.pool_off) {  // the kernel gave the chunks huge pages: ~3 MB took two or more
+            CHECK(s3.pool_chunks >= chunks + 1);
+            CHECK(vm_flags(blocks.back().data()).find(" hg ") != std::string::npos);
+            const auto chunk = address(blocks.back().data()) / memory::kPoolChunk;
+            CHECK(address(blocks.back().data() + blocks.back().size() - 1) / memory::kPoolChunk == chunk);
+        } else {
+            WARN("no huge pages here (THP off?): small blocks were mapped one by one");
+        }
+    }
+    {
+        // Huge pages off: a new small block is a mapping of its own, not carved, not advised.
+        memory::configure({.cache_bytes = 0, .huge_pages = false});
+        const memory::Stats s4 = memory::stats();
+        LargeVector<std::uint8_t> d(100000, 5);
+        CHECK(memory::stats().maps == s4.maps + 1);
+        CHECK(memory::stats().pool_chunks == s4.pool_chunks);
+        CHECK(vm_flags(d.data()).find(" hg ") == std::string::npos);
+        CHECK(d[99999] == 5u);
     }
     memory::configure({.cache_bytes = 0, .huge_pages = true});  // gives them back
     CHECK(memory::stats().cached_bytes == 0);

@@ -814,8 +814,9 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     // A parallel build (the condition is SubtreeBuilder::children's for the root) writes its
     // serial chunks into regions of t.nodes (RegionRate) and the rest (the chunks whose tasks
     // fork, a few nodes each, and regions that overflow) into an arena until they are
-    // assembled: blocks of n / 64 nodes, 64 KiB to 1 MiB (4 KiB pages: at 10^4 spheres a 2 MiB
-    // huge page for ~100 nodes was a tenth of a cold build). Without regions (a zero rate) the
+    // assembled: blocks of n / 64 nodes, 16 KiB to 1 MiB (small blocks of the allocator, carved
+    // from its 2 MiB chunks: at 10^4 spheres a 2 MiB huge page of its own for ~100 nodes was a
+    // tenth of a cold build). Without regions (a zero rate) the
     // arena holds every chunk: blocks of about 1/16 of the nodes expected (reserve_for's
     // estimate), between 1 and 64 MiB, or one block where all of them fit in 1 MiB.
     const std::size_t n = elements.size();
@@ -827,7 +828,7 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     if (parallel) {
         const std::size_t expected = (cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements) + 64;
         const std::size_t large = (memory::kLargeBlock + sizeof(Node) - 1) / sizeof(Node);
-        const std::size_t small = memory::kCachedBlock / sizeof(Node);
+        const std::size_t small = (memory::kCachedBlock + sizeof(Node) - 1) / sizeof(Node);  // >= a cached block
         arena.emplace(in_regions        ? std::clamp<std::size_t>(n / 64, small, large - small)
                       : expected <= large ? expected
                                           : std::clamp<std::size_t>(expected / 16, large, (std::size_t{64} << 20) / sizeof(Node)));

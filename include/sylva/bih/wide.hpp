@@ -672,7 +672,7 @@ private:
         struct LeafJob {
             std::uint32_t record, first, count;
         };
-        LargeVector<LeafJob> jobs;  ///< from 64 KiB (~5,500 leaves) a warm block of LargeAllocator's cache
+        LargeVector<LeafJob> jobs;  ///< from 16 KiB (~1,400 leaves) a warm block of LargeAllocator's cache
         std::uint32_t records = 0;  ///< records (sphere packets or elements) handed out so far
 
         /// Centres and radii of the spheres in the tree's order (sorted[k] = elements[order[k]]'s):

@@ -30,8 +30,9 @@
 //      Config::cache_bytes) and the next large allocation of a similar size reuses one, whose
 //      pages are already faulted in. So rebuilding a tree of the same size every frame touches
 //      warm memory, as a builder object that keeps its vectors would, but for every builder.
-// Blocks of kCachedBlock (64 KiB) up to kLargeBlock are mapped in 4 KiB pages and cached the same
-// way; smaller ones use the ordinary aligned operator new.
+// Blocks of kCachedBlock (16 KiB) up to kLargeBlock are carved from 2 MiB chunks in huge pages
+// (where those come cheaply, else mapped one by one in 4 KiB pages) and cached the same way;
+// smaller ones use the ordinary aligned operator new.
 //
 // LargeVector<T> is a std::vector with this allocator; the BIH's nodes, element order and the
 // builder's scratch use it. RunArena<T> carves many growing arrays from its blocks (a parallel
@@ -60,6 +61,7 @@
 #endif
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <sys/resource.h>
 #define SYLVA_MEMORY_MMAP 1
 #else
 #define SYLVA_MEMORY_MMAP 0
@@ -75,19 +77,25 @@ inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 /// block is freed the way it was allocated whatever the settings do meanwhile.
 inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
 
-/// Blocks from this many bytes up to kLargeBlock are mapped in 4 KiB pages (in multiples of
-/// it) and cached on free as well; smaller ones use operator new. Why: a build over 10^4-10^5
-/// elements has arrays of 64 KiB-1 MiB (the BIH's scratch, the WideTree's facts, nodes and
-/// leaf records), and glibc maps each above 128 KiB afresh and unmaps it when freed, or takes
-/// it from a heap whose top it gives back: on a VM where a 4 KiB fault costs ~10 us, 40-120
-/// faults a WideTree collapse at 10^4 spheres in steady state and ~200 in a fresh process
-/// (a collapse there takes 0.4-3 ms). From the cache the collapse reuses what the build just
-/// freed. Such blocks are mapped with MAP_POPULATE: they are filled soon after (each is one
-/// array, at most 1 MiB), and faulting all pages in one call costs much less there than a fault
-/// a page (a first default BIH build over 10^4 spheres, ~80 pages of records, two sets of ten
-/// fresh processes: medians 4.0-4.4 ms a fault a page, 3.1-3.3 ms populated). A constant, like
-/// kLargeBlock.
-inline constexpr std::size_t kCachedBlock = std::size_t{64} << 10;
+/// Blocks from this many bytes up to kLargeBlock (in multiples of it) come from this allocator
+/// and are cached on free as well; smaller ones use operator new. Why: a build over 10^4-10^5
+/// elements has arrays of 16 KiB-1 MiB (the BIH's scratch and order, the WideTree's facts,
+/// nodes, leaf records and ids), and glibc takes them from a heap whose top it gives back, or
+/// maps each above 128 KiB afresh and unmaps it when freed: 4 KiB pages faulted anew in every
+/// build. From the cache a collapse reuses what the build just freed. New blocks are carved
+/// from 2 MiB chunks advised huge pages (kPoolChunk), since what a first build pays for is the
+/// first use of each page: on this project's VMs ~4-15 us a 4 KiB page even after the kernel
+/// has populated it (the hypervisor maps it on the first access from user space: a fresh
+/// process wrote 320 KB in 0.27-0.53 ms after MAP_POPULATE, 0.004 ms the second time), against
+/// 0.08-0.24 ms for a whole huge page (30 fresh processes, median 0.14 ms, one of 3.9 ms; 1.4 MB
+/// of 4 KiB pages 3.1-7.3 ms, median 3.4). A first WideTree build over 10^4 spheres touches
+/// about 1.4 MB of such arrays. Where huge pages do not come (THP off) or cost more than 2 MiB
+/// of 4 KiB faults would at Config::small_page_limit_ms, and with Config::huge_pages off, each
+/// block is mapped on its own, populated (MAP_POPULATE: one call instead of a fault a page).
+/// A constant, like kLargeBlock.
+inline constexpr std::size_t kCachedBlock = std::size_t{16} << 10;
+/// The chunks small blocks (kCachedBlock up to kLargeBlock) are carved from: one huge page.
+inline constexpr std::size_t kPoolChunk = kHugePage;
 #if defined(MAP_POPULATE)
 inline constexpr int kPopulate = MAP_POPULATE;
 #else
@@ -113,7 +121,8 @@ struct Config {
     /// 1 GiB every such rebuild mapped fresh memory (steady builds 1.35-2.9 s instead of 1.5 s).
     std::size_t cache_bytes = default_cache_bytes();
     /// Advise MADV_HUGEPAGE on large blocks (inside a SmallPagesWhereCheap scope only where 4 KiB
-    /// faults are dear, below).
+    /// faults are dear, below), and carve small blocks from huge-page chunks (kCachedBlock);
+    /// false: 4 KiB pages for all, small blocks mapped one by one.
     bool huge_pages = true;
     /// Inside a SmallPagesWhereCheap scope, a new block of at least 4 huge pages first touches
     /// its first MiB in 4 KiB pages; when that took less than this many ms, 4 KiB faults are
@@ -131,6 +140,10 @@ struct Stats {
     std::size_t maps = 0;           ///< blocks mapped from the system so far
     std::size_t reuses = 0;         ///< allocations served from the cache so far
     std::size_t small_page_blocks = 0;  ///< blocks kept in 4 KiB pages (their faults were cheap)
+    std::size_t pool_chunks = 0;        ///< 2 MiB chunks mapped for small blocks (kPoolChunk)
+    /// Small blocks are mapped one by one in 4 KiB pages: huge pages are off, or a chunk's huge
+    /// page did not come or came dear (kCachedBlock). Until the next configure().
+    bool pool_off = false;
 };
 
 namespace detail {
@@ -156,6 +169,7 @@ public:
     void set_config(const Config& c) {
         std::lock_guard lock(mutex_);
         config_ = c;
+        stats_.pool_off = false;  // the new settings get a chunk of their own to decide by
         trim_locked(config_.cache_bytes);
     }
     Stats stats() {
@@ -168,7 +182,8 @@ public:
     }
 
     /// A block of at least `bytes`: from kLargeBlock on a multiple of kHugePage, 2 MiB-aligned
-    /// where mapped; below it a multiple of kCachedBlock in 4 KiB pages.
+    /// where mapped; below it a multiple of kCachedBlock, carved from a chunk (kPoolChunk) or
+    /// mapped in 4 KiB pages.
     void* allocate(std::size_t bytes) {
         const std::size_t size = bytes < kLargeBlock ? round_up_small(bytes) : round_up(bytes);
         const bool scoped = small_pages_scopes() > 0;
@@ -183,6 +198,14 @@ public:
                 ++stats_.reuses;
                 live_[b.p] = {got, b.small};
                 return b.p;
+            }
+            if (size < kLargeBlock) {
+                if (void* carved = carve_locked(size)) {
+                    live_[carved] = {size, false};
+                    stats_.mapped_bytes += size;
+                    ++stats_.maps;
+                    return carved;
+                }
             }
         }
         Block b = map(size);
@@ -251,6 +274,81 @@ private:
     static std::size_t round_up_small(std::size_t bytes) {
         return (std::max<std::size_t>(bytes, 1) + kCachedBlock - 1) / kCachedBlock * kCachedBlock;
     }
+
+    /// A new small block of `size` bytes (a multiple of kCachedBlock, under kLargeBlock) from
+    /// the current chunk, or from a new one when it has no room (what is left of the old one
+    /// goes to the cache as a free block); nullptr when small blocks are mapped one by one
+    /// (huge pages off; Stats::pool_off once the current chunk is used up).
+    void* carve_locked(std::size_t size) {
+#if SYLVA_MEMORY_MMAP
+        if (!config_.huge_pages) return nullptr;
+        if (static_cast<std::size_t>(pool_end_ - pool_top_) < size) {
+            if (stats_.pool_off) return nullptr;
+            unsigned char* chunk = new_chunk_locked();
+            if (!chunk) return nullptr;
+            if (const auto rest = static_cast<std::size_t>(pool_end_ - pool_top_); rest >= kCachedBlock) {
+                cache_.emplace(rest, Block{pool_top_, false});
+                stats_.cached_bytes += rest;
+                stats_.mapped_bytes += rest;
+            }
+            pool_top_ = chunk;
+            pool_end_ = chunk + kPoolChunk;
+        }
+        void* p = pool_top_;
+        pool_top_ += size;
+        return p;
+#else
+        (void)size;
+        return nullptr;
+#endif
+    }
+
+#if SYLVA_MEMORY_MMAP
+    /// Faults of the calling thread so far (minor and major).
+    static long thread_faults() {
+#if defined(RUSAGE_THREAD)
+        rusage u{};
+        if (::getrusage(RUSAGE_THREAD, &u) != 0) return -1;
+        return u.ru_minflt + u.ru_majflt;
+#else
+        return -1;
+#endif
+    }
+
+    /// Maps a chunk of kPoolChunk bytes, 2 MiB-aligned and advised MADV_HUGEPAGE, and touches
+    /// its first and last byte, which is one fault where the kernel gave it a huge page. Where
+    /// it did not (two faults, or no fault count), or the first fault took longer than 2 MiB of
+    /// 4 KiB faults would at Config::small_page_limit_ms (the kernel compacting memory to find
+    /// one), later small blocks are mapped one by one (Stats::pool_off); this chunk is carved all
+    /// the same. nullptr where the mapping fails (small blocks then mapped one by one).
+    unsigned char* new_chunk_locked() {
+        void* raw = ::mmap(nullptr, 2 * kPoolChunk, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (raw == MAP_FAILED) {
+            stats_.pool_off = true;
+            return nullptr;
+        }
+        const auto base = reinterpret_cast<std::uintptr_t>(raw);
+        const std::uintptr_t aligned = (base + kPoolChunk - 1) / kPoolChunk * kPoolChunk;
+        if (aligned > base) ::munmap(raw, aligned - base);
+        if (const std::size_t tail = base + 2 * kPoolChunk - (aligned + kPoolChunk); tail > 0)
+            ::munmap(reinterpret_cast<void*>(aligned + kPoolChunk), tail);
+        auto* chunk = reinterpret_cast<unsigned char*>(aligned);
+#if defined(MADV_HUGEPAGE)
+        ::madvise(chunk, kPoolChunk, MADV_HUGEPAGE);
+#endif
+        (void)std::chrono::steady_clock::now();  // its first call may fault (vDSO data)
+        const long before = thread_faults();
+        const auto start = std::chrono::steady_clock::now();
+        static_cast<volatile unsigned char*>(chunk)[0] = 0;
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        static_cast<volatile unsigned char*>(chunk)[kPoolChunk - 1] = 0;
+        const long faults = thread_faults() - before;
+        const double limit_ms = config_.small_page_limit_ms;
+        if (before < 0 || faults != 1 || (limit_ms > 0.0 && ms > 2.0 * limit_ms)) stats_.pool_off = true;
+        ++stats_.pool_chunks;
+        return chunk;
+    }
+#endif
 
     /// Maps `size` bytes aligned to kHugePage (maps size + 2 MiB, unmaps the slop); under
     /// kLargeBlock, page-aligned in 4 KiB pages, no advice.
@@ -331,6 +429,8 @@ private:
     Stats stats_;
     std::multimap<std::size_t, Block> cache_;  ///< free blocks by size
     std::unordered_map<void*, Live> live_;     ///< blocks in use, their sizes and pages
+    unsigned char* pool_top_ = nullptr;        ///< the free rest of the current chunk: [top, end)
+    unsigned char* pool_end_ = nullptr;
 };
 
 }  // namespace detail
