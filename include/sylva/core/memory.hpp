@@ -287,9 +287,12 @@ private:
             unsigned char* chunk = new_chunk_locked();
             if (!chunk) return nullptr;
             if (const auto rest = static_cast<std::size_t>(pool_end_ - pool_top_); rest >= kCachedBlock) {
-                cache_.emplace(rest, Block{pool_top_, false});
-                stats_.cached_bytes += rest;
-                stats_.mapped_bytes += rest;
+                try {
+                    cache_.emplace(rest, Block{pool_top_, false});
+                    stats_.cached_bytes += rest;
+                    stats_.mapped_bytes += rest;
+                } catch (...) {  // no room in the list: the rest stays unused, nothing else lost
+                }
             }
             pool_top_ = chunk;
             pool_end_ = chunk + kPoolChunk;
