@@ -816,9 +816,9 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     // fork, a few nodes each, and regions that overflow) into an arena until they are
     // assembled: blocks of n / 64 nodes, 16 KiB to 1 MiB (small blocks of the allocator, carved
     // from its 2 MiB chunks: at 10^4 spheres a 2 MiB huge page of its own for ~100 nodes was a
-    // tenth of a cold build). Without regions (a zero rate) the
-    // arena holds every chunk: blocks of about 1/16 of the nodes expected (reserve_for's
-    // estimate), between 1 and 64 MiB, or one block where all of them fit in 1 MiB.
+    // tenth of a cold build). Without regions (a zero rate) the arena holds every chunk: blocks
+    // of about 1/16 of the nodes expected (reserve_for's estimate), between 1 and 64 MiB, or one
+    // block where all of them fit in 1 MiB.
     const std::size_t n = elements.size();
     const RegionRate regions = rate ? *rate : RegionRate::for_config(cfg);
     const bool parallel = exec.concurrency() > 1 && n > cfg.parallel_threshold;

@@ -307,6 +307,19 @@ private:
     }
 
 #if SYLVA_MEMORY_MMAP
+    /// Maps `size` bytes (a multiple of kHugePage) aligned to kHugePage: maps size + 2 MiB and
+    /// unmaps the slop. No advice. nullptr where the mapping fails.
+    static void* map_huge_aligned(std::size_t size) {
+        void* raw = ::mmap(nullptr, size + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (raw == MAP_FAILED) return nullptr;
+        const auto base = reinterpret_cast<std::uintptr_t>(raw);
+        const std::uintptr_t aligned = (base + kHugePage - 1) / kHugePage * kHugePage;
+        if (aligned > base) ::munmap(raw, aligned - base);
+        if (const std::size_t tail = base + kHugePage - aligned; tail > 0)
+            ::munmap(reinterpret_cast<void*>(aligned + size), tail);
+        return reinterpret_cast<void*>(aligned);
+    }
+
     /// Faults of the calling thread so far (minor and major).
     static long thread_faults() {
 #if defined(RUSAGE_THREAD)
@@ -325,17 +338,12 @@ private:
     /// one), later small blocks are mapped one by one (Stats::pool_off); this chunk is carved all
     /// the same. nullptr where the mapping fails (small blocks then mapped one by one).
     unsigned char* new_chunk_locked() {
-        void* raw = ::mmap(nullptr, 2 * kPoolChunk, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-        if (raw == MAP_FAILED) {
+        static_assert(kPoolChunk == kHugePage);
+        auto* chunk = static_cast<unsigned char*>(map_huge_aligned(kPoolChunk));
+        if (!chunk) {
             stats_.pool_off = true;
             return nullptr;
         }
-        const auto base = reinterpret_cast<std::uintptr_t>(raw);
-        const std::uintptr_t aligned = (base + kPoolChunk - 1) / kPoolChunk * kPoolChunk;
-        if (aligned > base) ::munmap(raw, aligned - base);
-        if (const std::size_t tail = base + 2 * kPoolChunk - (aligned + kPoolChunk); tail > 0)
-            ::munmap(reinterpret_cast<void*>(aligned + kPoolChunk), tail);
-        auto* chunk = reinterpret_cast<unsigned char*>(aligned);
 #if defined(MADV_HUGEPAGE)
         ::madvise(chunk, kPoolChunk, MADV_HUGEPAGE);
 #endif
@@ -362,14 +370,8 @@ private:
             if (small == MAP_FAILED) throw std::bad_alloc();
             return {small, true};
         }
-        void* raw = ::mmap(nullptr, size + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-        if (raw == MAP_FAILED) throw std::bad_alloc();
-        auto base = reinterpret_cast<std::uintptr_t>(raw);
-        std::uintptr_t aligned = (base + kHugePage - 1) / kHugePage * kHugePage;
-        if (aligned > base) ::munmap(raw, aligned - base);
-        std::size_t tail = base + size + kHugePage - (aligned + size);
-        if (tail > 0) ::munmap(reinterpret_cast<void*>(aligned + size), tail);
-        void* p = reinterpret_cast<void*>(aligned);
+        void* p = map_huge_aligned(size);
+        if (!p) throw std::bad_alloc();
         bool small = false;
         bool huge;
         double limit_ms;
