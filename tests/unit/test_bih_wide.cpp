@@ -513,6 +513,55 @@ TEST_CASE("the AVX2 node test gives the SSE test's mask and entry t bit for bit"
 }
 #endif
 
+TEST_CASE("the walk's compress keeps the masked slots in slot order, on every mask", "[bih][wide]") {
+    // The reference is the definition: slot c is kept when bit c is set, in ascending order.
+    std::uint32_t a[bih::kWideWidth], b[bih::kWideWidth];
+    for (int c = 0; c < bih::kWideWidth; ++c) a[c] = 100u + static_cast<std::uint32_t>(c), b[c] = 200u + static_cast<std::uint32_t>(c);
+    std::size_t wrong = 0;
+    for (int mask = 0; mask < (1 << bih::kWideWidth); ++mask) {
+        std::vector<std::uint32_t> want;
+        for (int c = 0; c < bih::kWideWidth; ++c)
+            if (mask & (1 << c)) want.push_back(static_cast<std::uint32_t>(c));
+        auto check = [&](auto test) {
+            std::uint32_t out[bih::kWideWidth];
+            bih::detail::LeafRef pairs[bih::kWideWidth];
+            const int k = decltype(test)::compress(a, mask, out);
+            const int kp = decltype(test)::compress_pairs(a, b, mask, pairs);
+            bool same = k == static_cast<int>(want.size()) && kp == k;
+            for (int j = 0; same && j < k; ++j)
+                same = out[j] == a[want[j]] && pairs[j].first == a[want[j]] && pairs[j].count == b[want[j]];
+            wrong += same ? 0 : 1;
+        };
+        check(bih::detail::BaseNodeTest{});
+#ifdef SYLVA_BIH_WIDE_AVX2
+        if (bih::detail::cpu_has_avx2()) check(bih::detail::Avx2NodeTest{});
+#endif
+    }
+    CHECK(wrong == 0);
+}
+
+TEST_CASE("all_hits finds every hit when more nodes are pending than its queue holds", "[bih][wide]") {
+    // A ray along a row of 20,000 spheres enters every node of the tree: hundreds of nodes are
+    // pending at once, so the walk's queue (64 nodes) moves its pending nodes to the front and
+    // then sends whole nodes' children to its stack. Every sphere is hit, each once, in order.
+    std::vector<Sphere> row = sphere_row(20000);
+    std::span<const Sphere> es(row);
+    for (std::uint32_t leaf : {4u, 8u}) {
+        bih::Tree tree = bih::build(es, bih::wide_source_config(row.size(), bih::WideConfig{leaf}));
+        bih::WideTree<Sphere> wide(tree, es, bih::WideConfig{leaf});
+        const Ray along{vec3(-5.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)};
+        CHECK(wide.visits(along).nodes == wide.stats().nodes);
+        std::vector<bih::ElementHit> hits;
+        bih::all_hits(wide, along, hits);
+        const auto expected = bih::brute_force_hits(es, along, Interval{});
+        REQUIRE(expected.size() == row.size());
+        REQUIRE(hits.size() == expected.size());
+        std::size_t differing = 0;
+        for (std::size_t i = 0; i < hits.size(); ++i) differing += hits[i].element == expected[i].element ? 0 : 1;
+        CHECK(differing == 0);
+    }
+}
+
 namespace {
 /// The slots of `slots` farthest first by entry t, as a sort gives them (ties in slot order).
 std::vector<int> far_first_by_sort(const float tn[bih::kWideWidth], int slots) {
