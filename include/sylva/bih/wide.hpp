@@ -22,8 +22,9 @@
 //   each leaf starts a new packet, unused lanes have radius 0 (never hit) and id kNoChild.
 //   Other element types are copied in leaf order and tested one by one.
 //
-// all_hits walks the nodes in any order (breadth first through a small ring, so that a node's
-// prefetch has time to arrive before it is tested) and only gathers the leaves it enters; each
+// all_hits walks the nodes in any order (breadth first through a small queue, so that in a large
+// tree a node's prefetch has time to arrive before it is tested) and only gathers the leaves it
+// enters, a node's entered children and leaves appended with one permutation and store; each
 // batch of leaves is then tested in two passes (a branch-free float prefilter over every packet,
 // then the exact test, bit-identical to Sphere::intersect, for the candidates), and the hits are
 // sorted at the end. first_hit walks inner nodes nearest entry first, tests a node's entered leaves
