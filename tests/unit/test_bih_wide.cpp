@@ -516,7 +516,10 @@ TEST_CASE("the AVX2 node test gives the SSE test's mask and entry t bit for bit"
 TEST_CASE("the walk's compress keeps the masked slots in slot order, on every mask", "[bih][wide]") {
     // The reference is the definition: slot c is kept when bit c is set, in ascending order.
     std::uint32_t a[bih::kWideWidth], b[bih::kWideWidth];
-    for (int c = 0; c < bih::kWideWidth; ++c) a[c] = 100u + static_cast<std::uint32_t>(c), b[c] = 200u + static_cast<std::uint32_t>(c);
+    for (int c = 0; c < bih::kWideWidth; ++c) {
+        a[c] = 100u + static_cast<std::uint32_t>(c);
+        b[c] = 200u + static_cast<std::uint32_t>(c);
+    }
     std::size_t wrong = 0;
     for (int mask = 0; mask < (1 << bih::kWideWidth); ++mask) {
         std::vector<std::uint32_t> want;
