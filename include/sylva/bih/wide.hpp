@@ -315,7 +315,8 @@ struct Avx2NodeTest {
                                                              const std::uint32_t b[kWideWidth], int mask,
                                                              LeafRef* out) {
         // The permutation also spreads the lanes as unpacklo / unpackhi want them: 0 1 4 5 | 2 3 6 7.
-        const __m256i order = _mm256_permutevar8x32_epi32(compress_order(mask), _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7));
+        const __m256i spread = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
+        const __m256i order = _mm256_permutevar8x32_epi32(compress_order(mask), spread);
         const __m256i x = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(a)), order);
         const __m256i y = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(b)), order);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm256_unpacklo_epi32(x, y));

@@ -87,8 +87,8 @@ inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
 /// first use of each page: on this project's VMs ~4-15 us a 4 KiB page even after the kernel
 /// has populated it (no fault is counted; it looks like the hypervisor's cost, paid at the
 /// first access from user space: a fresh process wrote 320 KB in 0.27-0.53 ms after
-/// MAP_POPULATE, 0.004 ms the second time), against 0.08-0.24 ms for a whole huge page (30 fresh processes, median 0.14 ms, one of 3.9 ms; 1.4 MB
-/// of 4 KiB pages 3.1-7.3 ms, median 3.4). A first WideTree build over 10^4 spheres touches
+/// MAP_POPULATE, 0.004 ms the second time), against 0.08-0.24 ms for a whole huge page (30
+/// fresh processes, median 0.14 ms, one of 3.9 ms; 1.4 MB of 4 KiB pages 3.1-7.3 ms, median 3.4). A first WideTree build over 10^4 spheres touches
 /// about 1.4 MB of such arrays. Where huge pages do not come (THP off) or cost more than 2 MiB
 /// of 4 KiB faults would at Config::small_page_limit_ms, and with Config::huge_pages off, each
 /// block is mapped on its own, populated (MAP_POPULATE: one call instead of a fault a page).
