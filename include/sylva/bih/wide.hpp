@@ -24,10 +24,11 @@
 //
 // all_hits walks the nodes in any order (breadth first through a small queue, so that in a large
 // tree a node's prefetch has time to arrive before it is tested) and only gathers the leaves it
-// enters, a node's entered children and leaves appended with one permutation and store; each
-// batch of leaves is then tested in two passes (a branch-free float prefilter over every packet,
-// then the exact test, bit-identical to Sphere::intersect, for the candidates), and the hits are
-// sorted at the end. first_hit walks inner nodes nearest entry first, tests a node's entered leaves
+// enters, a node's entered children and leaves appended with one permutation and store each
+// (both stores run for every node, without a branch on whether it entered any); each batch of
+// leaves is then tested in two passes (a branch-free float prefilter over every packet, then the
+// exact test, bit-identical to Sphere::intersect, for the candidates), and the hits are sorted at
+// the end. first_hit walks inner nodes nearest entry first, tests a node's entered leaves
 // as soon as the node is tested, and prunes what lies beyond its best.
 //
 // Any checked BIH collapses; the fastest to build from is one with leaves of the wide tree's leaf
@@ -551,31 +552,32 @@ private:
             const int mask = Test::enter(n, r, range.t0, range.t1, nullptr);  // entry t not needed
             const int leaves = mask & leaf_mask(n);
             const int inner = mask & ~leaves;
-            if (inner != 0) {
-                const auto k = static_cast<std::uint32_t>(std::popcount(static_cast<unsigned>(inner)));
-                if (tail + k > kQueue && head != 0) {
-                    std::copy(queue + head, queue + tail, queue);
-                    tail -= head;
-                    head = 0;
-                }
-                if (tail + k <= kQueue) {
-                    const std::uint32_t from = tail;
-                    tail += static_cast<std::uint32_t>(Test::compress(n.child, inner, queue + tail));
-                    if (far)
-                        for (std::uint32_t j = from; j < tail; ++j) prefetch_node(queue[j]);
-                } else {
-                    for (int m = inner; m != 0; m &= m - 1) stack[sp++] = n.child[lowest_bit(m)];
-                }
+            // Both stores run for every node, also when it entered no inner child or no leaf
+            // (they then store lanes past the end and count nothing): a branch on whether a
+            // node has either is taken about half the time, unpredictably, and cost more than
+            // the stores (one thread, 2e5 rays, alternating processes: clustered 10^4 spheres
+            // 256 -> 199 ns a ray, clustered 10^5 622 -> 527, uniform 10^4 433 -> 401).
+            const auto k = static_cast<std::uint32_t>(std::popcount(static_cast<unsigned>(inner)));
+            if (tail + k > kQueue && head != 0) {
+                std::copy(queue + head, queue + tail, queue);
+                tail -= head;
+                head = 0;
             }
-            if (leaves != 0) {
-                const std::uint32_t from = nf;
-                nf += static_cast<std::uint32_t>(Test::compress_pairs(n.child, n.count, leaves, found + nf));
+            if (tail + k <= kQueue) {
+                const std::uint32_t from = tail;
+                tail += static_cast<std::uint32_t>(Test::compress(n.child, inner, queue + tail));
                 if (far)
-                    for (std::uint32_t j = from; j < nf; ++j) detail::prefetch(&records_[found[j].first]);
-                if (nf > kFound - kWideWidth) {
-                    on_leaves(static_cast<const LeafRef*>(found), nf);
-                    nf = 0;
-                }
+                    for (std::uint32_t j = from; j < tail; ++j) prefetch_node(queue[j]);
+            } else {
+                for (int m = inner; m != 0; m &= m - 1) stack[sp++] = n.child[lowest_bit(m)];
+            }
+            const std::uint32_t first_new = nf;
+            nf += static_cast<std::uint32_t>(Test::compress_pairs(n.child, n.count, leaves, found + nf));
+            if (far)
+                for (std::uint32_t j = first_new; j < nf; ++j) detail::prefetch(&records_[found[j].first]);
+            if (nf > kFound - kWideWidth) {
+                on_leaves(static_cast<const LeafRef*>(found), nf);
+                nf = 0;
             }
             if (sp != 0)
                 node = stack[--sp];
