@@ -19,7 +19,7 @@ template <class R>
 struct Entrant {
     std::string impl;
     std::string case_name;
-    std::function<R()> pass;
+    std::function<void(R&)> pass;  ///< one pass into a prepare()d result
     const Variant* variant = nullptr;  ///< null for embree
     R result{};
     std::vector<double> ms{};
@@ -28,12 +28,14 @@ struct Entrant {
 /// Runs every entrant's pass opt.runs times, interleaved (run r of each before run r + 1 of
 /// any), so that load from elsewhere on the machine hits all of them alike; records rays/s: the
 /// steady state (the median of the passes after the first) and the first pass in the process.
+/// Each pass writes into its entrant's result, sized and filled before the clock starts (see
+/// FirstHits).
 template <class R>
 void race(const Context& c, std::vector<Entrant<R>>& entrants, const std::string& base, std::size_t rays) {
     for (std::size_t r = 0; r < c.opt.runs; ++r)
         for (auto& e : entrants) {
-            e.result = {};
-            e.ms.push_back(time_ms([&] { e.result = e.pass(); }));
+            e.result.prepare(rays);
+            e.ms.push_back(time_ms([&] { e.pass(e.result); }));
         }
     for (auto& e : entrants) {
         const std::string peer = e.impl == "embree" ? "" : base, config = e.variant ? e.variant->name : "";
@@ -43,13 +45,16 @@ void race(const Context& c, std::vector<Entrant<R>>& entrants, const std::string
     }
 }
 
+/// The rays ray_budget times its probe pass on (the first ones of the set, at most this many).
+constexpr std::size_t kBudgetSample = 2000;
+
 /// The first rays of the set that a traversal case traces: all of them, or (with a pass
 /// budget) as many as sylva's `probe` pass gets through in about pass_seconds, at least 1e4.
 template <class F>
 std::span<const sylva::Ray> ray_budget(const Context& c, F&& probe) {
     std::span<const sylva::Ray> all(c.rays);
     if (c.opt.pass_seconds <= 0.0) return all;
-    auto sample = all.first(std::min<std::size_t>(all.size(), 2000));
+    auto sample = all.first(std::min(all.size(), kBudgetSample));
     double ms = time_ms([&] { probe(sample); });
     double fit = static_cast<double>(sample.size()) / std::max(ms, 1e-3) * 1000.0 * c.opt.pass_seconds;
     std::size_t n = std::max(static_cast<std::size_t>(fit), std::size_t{10000});
@@ -167,12 +172,12 @@ std::vector<Entrant<R>> entrants(const Context& c, const std::vector<Variant>& v
                                  S&& sylva_pass, E&& embree_pass) {
     std::vector<Entrant<R>> out;
 #if SYLVA_BENCH_EMBREE
-    out.push_back({"embree", base, [&c, embree_pass] { return embree_pass(*c.embree); }});
+    out.push_back({"embree", base, [&c, embree_pass](R& r) { embree_pass(*c.embree, r); }});
 #else
     (void)c, (void)embree_pass;
 #endif
     for (const Variant& v : vs)
-        out.push_back({"sylva", base + "/" + v.name, [&v, sylva_pass] { return sylva_pass(v); }, &v});
+        out.push_back({"sylva", base + "/" + v.name, [&v, sylva_pass](R& r) { sylva_pass(v, r); }, &v});
     return out;
 }
 
@@ -180,10 +185,12 @@ void first_hit(const Context& c, const SylvaIndex& idx, const std::vector<sylva:
                const std::string& label) {
     const std::string base = "first_hit/" + label;
     const std::vector<Variant> vs = variants(idx);
-    auto rays = ray_budget(c, [&](auto r) { sylva_first_hits(vs[0], spheres, r, c.pool); });
+    FirstHits probe;
+    probe.prepare(std::min(c.rays.size(), kBudgetSample));
+    auto rays = ray_budget(c, [&](auto r) { sylva_first_hits(vs[0], spheres, r, c.pool, probe); });
     auto es = entrants<FirstHits>(
-        c, vs, base, [&](const Variant& v) { return sylva_first_hits(v, spheres, rays, c.pool); },
-        [&](const auto& peer) { return peer.first_hits(rays, c.pool); });
+        c, vs, base, [&](const Variant& v, FirstHits& out) { sylva_first_hits(v, spheres, rays, c.pool, out); },
+        [&](const auto& peer, FirstHits& out) { peer.first_hits(rays, c.pool, out); });
     race(c, es, base, rays.size());
     const FirstHits& ref = es.front().result;
     std::string against = es.front().impl == "embree" ? "embree" : "sylva fixed16";
@@ -201,10 +208,12 @@ void all_hits(const Context& c, const SylvaIndex& idx, const std::vector<sylva::
               const std::string& label) {
     const std::string base = "all_hits/" + label;
     const std::vector<Variant> vs = variants(idx);
-    auto rays = ray_budget(c, [&](auto r) { sylva_all_hits(vs[0], spheres, r, c.pool); });
+    AllHits probe;
+    probe.prepare(std::min(c.rays.size(), kBudgetSample));
+    auto rays = ray_budget(c, [&](auto r) { sylva_all_hits(vs[0], spheres, r, c.pool, probe); });
     auto es = entrants<AllHits>(
-        c, vs, base, [&](const Variant& v) { return sylva_all_hits(v, spheres, rays, c.pool); },
-        [&](const auto& peer) { return peer.all_hits(rays, c.pool); });
+        c, vs, base, [&](const Variant& v, AllHits& out) { sylva_all_hits(v, spheres, rays, c.pool, out); },
+        [&](const auto& peer, AllHits& out) { peer.all_hits(rays, c.pool, out); });
     race(c, es, base, rays.size());
     const AllHits& ref = es.front().result;
     HitList ref_list = sylva_hit_list(vs[0], spheres);

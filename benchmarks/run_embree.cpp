@@ -135,22 +135,19 @@ EmbreePeer::BuildTimes EmbreePeer::build(const std::vector<sylva::Sphere>& spher
     return t;
 }
 
-FirstHits EmbreePeer::first_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool) const {
-    FirstHits out{std::vector<std::uint32_t>(rays.size(), kNoHit)};
+void EmbreePeer::first_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool, FirstHits& out) const {
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
         for (std::size_t i = lo; i < hi; ++i) {
             RTCRayHit rh = make_ray(rays[i]);
             rtcIntersect1(scene_, &ctx, &rh);
-            if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) out.id[i] = rh.hit.primID;
+            out.id[i] = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID ? rh.hit.primID : kNoHit;
         }
     });
-    return out;
 }
 
-AllHits EmbreePeer::all_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool) const {
-    AllHits out{std::vector<std::uint32_t>(rays.size(), 0), std::vector<std::uint64_t>(rays.size(), 0)};
+void EmbreePeer::all_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool, AllHits& out) const {
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
         Collector c;
         for (std::size_t i = lo; i < hi; ++i) {
@@ -161,7 +158,6 @@ AllHits EmbreePeer::all_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool
             out.set[i] = set;
         }
     });
-    return out;
 }
 
 }  // namespace bench

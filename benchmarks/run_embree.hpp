@@ -34,8 +34,9 @@ public:
     /// is ours and not counted).
     [[nodiscard]] std::int64_t scene_bytes() const { return scene_bytes_; }
 
-    FirstHits first_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool) const;
-    AllHits all_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool) const;
+    /// One pass over all rays into `out` (prepare()d for rays.size(); every entry written).
+    void first_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool, FirstHits& out) const;
+    void all_hits(std::span<const sylva::Ray> rays, sylva::ThreadPool& pool, AllHits& out) const;
     /// The ids all_hits finds along one ray (for re-examining disagreements).
     [[nodiscard]] HitList hit_list() const;
 

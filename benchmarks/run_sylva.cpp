@@ -244,9 +244,8 @@ std::vector<Variant> variants(const SylvaIndex& idx) {
             {"kd", nullptr, &idx.kd, nullptr, nullptr, false, true}};
 }
 
-FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
-                           sylva::ThreadPool& pool) {
-    FirstHits out{std::vector<std::uint32_t>(rays.size(), kNoHit)};
+void sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
+                      sylva::ThreadPool& pool, FirstHits& out) {
     std::span<const std::uint32_t> w(*v.words);
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
@@ -256,15 +255,13 @@ FirstHits sylva_first_hits(const Variant& v, const std::vector<Sphere>& spheres,
                      : v.wide         ? bih::first_hit(*v.wide, rays[i])
                      : v.records      ? bih::first_hit(w, *v.records, rays[i])
                                       : bih::first_hit(w, *v.tree, es, rays[i]);
-            if (h) out.id[i] = h->element;
+            out.id[i] = h ? h->element : kNoHit;
         }
     });
-    return out;
 }
 
-AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
-                       sylva::ThreadPool& pool) {
-    AllHits out{std::vector<std::uint32_t>(rays.size(), 0), std::vector<std::uint64_t>(rays.size(), 0)};
+void sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std::span<const sylva::Ray> rays,
+                    sylva::ThreadPool& pool, AllHits& out) {
     std::span<const std::uint32_t> w(*v.words);
     std::span<const Sphere> es(spheres);
     pool.parallel_for(0, rays.size(), 1024, [&](std::size_t lo, std::size_t hi) {
@@ -286,7 +283,6 @@ AllHits sylva_all_hits(const Variant& v, const std::vector<Sphere>& spheres, std
             out.set[i] = set;
         }
     });
-    return out;
 }
 
 HitList sylva_hit_list(const Variant& v, const std::vector<Sphere>& spheres) {

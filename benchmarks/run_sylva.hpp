@@ -87,13 +87,14 @@ void record_sylva_build(Report& report, const std::string& name, const std::stri
 void bench_sylva_encode(SylvaIndex& idx, const std::vector<sylva::Sphere>& spheres, const Options& opt,
                         Report& report, const std::string& label, sylva::ThreadPool& pool);
 
-/// One pass of bih::first_hit over all rays, in parallel on `pool`.
-FirstHits sylva_first_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres,
-                           std::span<const sylva::Ray> rays, sylva::ThreadPool& pool);
+/// One pass of bih::first_hit over all rays, in parallel on `pool`, into `out` (prepare()d for
+/// rays.size(); every entry written).
+void sylva_first_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres, std::span<const sylva::Ray> rays,
+                      sylva::ThreadPool& pool, FirstHits& out);
 
-/// One pass of bih::all_hits over all rays, in parallel on `pool`.
-AllHits sylva_all_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres, std::span<const sylva::Ray> rays,
-                       sylva::ThreadPool& pool);
+/// One pass of bih::all_hits over all rays, in parallel on `pool`, into `out` (as above).
+void sylva_all_hits(const Variant& v, const std::vector<sylva::Sphere>& spheres, std::span<const sylva::Ray> rays,
+                    sylva::ThreadPool& pool, AllHits& out);
 
 /// bih::all_hits of one ray as a list of element ids (for re-examining disagreements).
 HitList sylva_hit_list(const Variant& v, const std::vector<sylva::Sphere>& spheres);
