@@ -88,7 +88,8 @@ inline std::uint64_t mix_id(std::uint32_t id) {
 /// A traversal pass's results. A race sizes them (prepare) before it starts the clock, so a
 /// pass writes into arrays whose pages are already in use: the first pass in a process would
 /// otherwise also time the first touch of 12 MB of result arrays per 10^6 rays (about 30 ms
-/// here, and not alike for every entrant, as the heap had free pages for some).
+/// on one thread here), which an entrant whose arrays the heap serves from pages it has
+/// already touched does not pay.
 struct FirstHits {
     std::vector<std::uint32_t> id;  ///< element index of the nearest hit, or kNoHit
     void prepare(std::size_t rays) { id.assign(rays, kNoHit); }
