@@ -22,7 +22,10 @@ TEST_CASE("parallel_for covers the range exactly once", "[executor]") {
 }
 
 TEST_CASE("nested invoke does not deadlock and exceptions propagate", "[executor]") {
-    ThreadPool pool(2);
+    // Without polling, with the default, and polling longer than any wait here (every wait then
+    // ends in the poll, never on the condition variable).
+    const auto spin = GENERATE(std::chrono::microseconds{0}, ThreadPool::kDefaultSpin, std::chrono::microseconds{2000000});
+    ThreadPool pool(2, spin);
     std::function<long(int)> fib = [&](int n) -> long {
         if (n < 2) return n;
         long a = 0, b = 0;
@@ -114,7 +117,8 @@ TEST_CASE("after an exception every chunk has finished and the pool keeps workin
 }
 
 TEST_CASE("deeply nested invokes and parallel_fors from every thread finish", "[executor]") {
-    ThreadPool pool(2);
+    const auto spin = GENERATE(std::chrono::microseconds{0}, ThreadPool::kDefaultSpin, std::chrono::microseconds{2000000});
+    ThreadPool pool(2, spin);
     std::atomic<long> leaves{0};
     std::function<void(int)> tree = [&](int depth) {
         if (depth == 0) {
@@ -127,4 +131,23 @@ TEST_CASE("deeply nested invokes and parallel_fors from every thread finish", "[
     };
     tree(4);
     CHECK(leaves.load() == 1296);  // (3 * 2)^4
+}
+
+TEST_CASE("a pool that polls for minutes still hands out work, and stops without waiting its polls out", "[executor]") {
+    using Clock = std::chrono::steady_clock;
+    const auto start = Clock::now();
+    {
+        ThreadPool pool(3, std::chrono::minutes(10));
+        for (int round = 0; round < 20; ++round) {
+            std::atomic<int> chunks{0};
+            pool.parallel_for(0, 12, 1, [&](std::size_t, std::size_t) {
+                std::this_thread::sleep_for(std::chrono::microseconds(200));
+                chunks++;
+            });
+            REQUIRE(chunks.load() == 12);
+            // A pause longer than the tasks: the workers are polling an empty queue now.
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+    }  // the destructor: its workers stop polling when told to stop
+    CHECK(Clock::now() - start < std::chrono::minutes(1));
 }
