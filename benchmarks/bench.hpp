@@ -131,6 +131,19 @@ inline std::vector<double> steady(std::vector<double> samples) {
 /// A rate: `count` things in `ms` milliseconds, per second.
 inline double per_s(double count, double ms) { return count / (std::max(ms, 1e-6) / 1000.0); }
 
+/// Waits 2 ms, untimed, before each timed call of a race: threads that poll after their last
+/// task (sylva::ThreadPool's, for ThreadPool::kDefaultSpin; TBB's after an Embree commit, ~0.2 ms
+/// of CPU in the first 250 us after it, measured with a throw-away probe) are asleep by then, so
+/// that no timed call shares its cores with the tail of the call before it, whoever made it.
+/// The calling thread waits busy, as an application's own single-threaded work would keep it:
+/// after a sleep of the caller the kernel here often woke a pool's worker onto the caller's core,
+/// and a 10^4-sphere build then ran on one core (README, "A pool that polls before it sleeps").
+inline void settle() {
+    const auto start = Clock::now();
+    while (Clock::now() - start < std::chrono::milliseconds(2)) {
+    }
+}
+
 /// Wall time of one call of f, in milliseconds.
 template <class F>
 double time_ms(F&& f) {
@@ -146,6 +159,7 @@ std::vector<double> samples(std::size_t runs, double budget_ms, F&& run) {
     std::vector<double> ms;
     double total = 0.0;
     for (std::size_t r = 0; r < runs; ++r) {
+        settle();
         ms.push_back(run());
         total += ms.back();
         if (budget_ms > 0.0 && total >= budget_ms) break;

@@ -35,6 +35,7 @@ void race(const Context& c, std::vector<Entrant<R>>& entrants, const std::string
     for (std::size_t r = 0; r < c.opt.runs; ++r)
         for (auto& e : entrants) {
             e.result.prepare(rays);
+            settle();
             e.ms.push_back(time_ms([&] { e.pass(e.result); }));
         }
     for (auto& e : entrants) {
@@ -90,12 +91,14 @@ struct Builder {
 /// budget.
 /// Odd runs go in reverse order, so that no builder always follows the same one: a build right
 /// after Embree's shares the cores with TBB's workers, which spin for a while after a commit
-/// (at 10^4 spheres that cost the next build about 0.5 ms of 1.2-1.8 ms).
+/// (at 10^4 spheres that cost the next build about 0.5 ms of 1.2-1.8 ms). Each build also starts
+/// after settle(), when those workers (and sylva::ThreadPool's polling ones) are asleep.
 void build_race(const Context& c, std::vector<Builder>& builders) {
     for (std::size_t r = 0; r < c.opt.build_runs(); ++r) {
         bool spent = false;
         for (std::size_t k = 0; k < builders.size(); ++k) {
             Builder& b = builders[r % 2 == 0 ? k : builders.size() - 1 - k];
+            settle();
             b.ms.push_back(b.run());
             b.total += b.ms.back();
             spent = spent || (c.opt.build_budget_ms() > 0.0 && b.total >= c.opt.build_budget_ms());

@@ -99,12 +99,14 @@ int cold_child_main(const Options& opt) {
 #if SYLVA_BENCH_EMBREE
         EmbreePeer embree(pool.concurrency());
         embree.build(warm);
+        settle();
         ms = embree.build(spheres).commit_ms;
 #else
         throw std::invalid_argument("--cold-child embree: built without Embree");
 #endif
     } else {
         time_one_build(opt.cold_child, warm, pool);
+        settle();
         ms = time_one_build(opt.cold_child, spheres, pool);
     }
     std::printf("cold_build_ms %.6f\n", ms);

@@ -254,6 +254,7 @@ void run_frames(std::vector<Entrant>& es, const std::vector<Sphere>& base, std::
         move(base, f, now, pool);
         for (std::size_t k = 0; k < es.size(); ++k) {  // alternate the order between frames
             Entrant& e = es[f % 2 ? k : es.size() - 1 - k];
+            settle();
             e.ms.push_back(time_ms([&] { e.update(Spheres(now)); }));
         }
         std::cerr << who << ": moving " << size_label(a.count) << ": frame " << f << " of " << a.frames << std::endl;
@@ -290,6 +291,7 @@ std::size_t check_brute_force(std::vector<Entrant>& es, const std::vector<Sphere
 void measure_queries(std::vector<Entrant>& es, std::span<const Ray> rays, ThreadPool& pool) {
     std::vector<std::uint32_t> hit(rays.size());
     for (Entrant& e : es) {
+        settle();
         double q = time_ms([&] {
             pool.parallel_for(0, rays.size(), 512, [&](std::size_t i0, std::size_t i1) {
                 for (std::size_t i = i0; i < i1; ++i) hit[i] = e.first(rays[i]).value_or(~0u);
