@@ -45,11 +45,11 @@ struct SerialExecutor {
 /// and only then blocks on the pool's condition variable: waking a blocked thread took about
 /// 20 us on the project's 2-core VMs, a tenth of a 10^4-element WideTree build (README, "A
 /// pool that polls before it sleeps"). parallel_for queues at most concurrency() - 1 helper
-/// tasks that take the range's chunks from an atomic counter, the caller taking them too. Exceptions: the first
-/// one thrown by a chunk or a callable is rethrown to the caller after every task of the call
-/// has finished, and a failure to queue a task (std::bad_alloc) still waits for the tasks
-/// already queued before it propagates, so no queued task outlives the stack it points to.
-/// Threads are joined in the destructor.
+/// tasks that take the range's chunks from an atomic counter, the caller taking them too.
+/// Exceptions: the first one thrown by a chunk or a callable is rethrown to the caller after
+/// every task of the call has finished, and a failure to queue a task (std::bad_alloc) still
+/// waits for the tasks already queued before it propagates, so no queued task outlives the
+/// stack it points to. Threads are joined in the destructor.
 class ThreadPool {
 public:
     /// How long a waiting thread polls before it blocks, by default. 200 us: on two threads,
