@@ -61,7 +61,8 @@ double load_average() {
 void print_header(const bench::Options& opt, std::size_t threads) {
     std::cout << "sylva-bench: " << threads << " threads, up to " << opt.runs << " runs per case (median), up to "
               << opt.rays << " rays, pass budget " << opt.pass_seconds << " s, load average " << load_average()
-              << ", cold: " << opt.cold_runs << " fresh processes per build" << (opt.load ? ", under load too" : "")
+              << ", cold: " << opt.cold_runs << " fresh processes per build (quiet cases only)"
+              << (opt.load ? ", every case again under load" : "")
               << ", sizes";
     for (std::size_t n : opt.sizes) std::cout << " " << bench::size_label(n);
     if (opt.run_moving) std::cout << ", moving: " << opt.frames << " frames" << (opt.run_build ? "" : " (moving only)");
