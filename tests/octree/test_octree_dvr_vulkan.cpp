@@ -15,6 +15,7 @@
 #include <sylva/octree/lod_error.hpp>
 #include <sylva/octree/octants.hpp>
 #include <sylva/render/octree_volume.hpp>
+#include <sylva/vulkan/loop_limit.hpp>
 #include <sylva/vulkan/octree_volume.hpp>
 #include <sylva/vulkan/volume.hpp>
 
@@ -226,9 +227,14 @@ TEST_CASE("vulkan: octree iso and view-dependent cuts on the device equal the ho
     CHECK_THROWS_AS(dev.set_index(other), Error);
 }
 
-/// Lavapipe's loop limiter: some of the host's rays need over 65,535 samples; on llvmpipe
-/// some device pixels are marked (steps 0xFFFFFFFF), and every unmarked pixel is the whole ray.
-void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame& device) {
+/// Lavapipe's loop limiter: some of the host's rays need over 65,535 samples; where the device
+/// cuts loops (vk::loops_limited: lavapipe 22.3) some device pixels are marked (steps
+/// 0xFFFFFFFF), elsewhere none, and every unmarked pixel is the whole ray: the same steps, and
+/// an opacity within 1e-4 plus 1e-7 a sample. The octree DVR's opacity is not bit-exact on
+/// lavapipe (README: within 5.6e-5 at the usual sampling); over the same rays both lavapipe 22.3
+/// and 25 differ from the host by 5.3e-8 a sample at most (a throw-away probe at 1,191, 59,548
+/// and 178,644 samples: 6.4e-5, 3.2e-3 and 9.5e-3), while a ray cut short would lose steps.
+void check_limiter_marks(vk::Context& ctx, const Frame& host, const Frame& device) {
     std::size_t past_limit = 0, marked = 0, differing = 0;
     std::uint32_t worst_apart = 0;
     for (std::size_t i = 0; i < host.steps.size(); ++i) {
@@ -240,7 +246,7 @@ void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame&
         INFO("pixel " << i);
         if (devtol::exact(ctx)) {
             CHECK(device.steps[i] == host.steps[i]);  // an unmarked pixel is the whole ray
-            CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f);
+            CHECK(std::abs(device.rgba[i].w - host.rgba[i].w) < 1e-4f + 1e-7f * static_cast<float>(host.steps[i]));
         } else {  // a GPU: within devtol's limits (a 120,000-sample ray meets many brick faces)
             const std::uint32_t apart = std::max(device.steps[i], host.steps[i]) - std::min(device.steps[i], host.steps[i]);
             differing += apart > devtol::step_slack(host.steps[i]) ||
@@ -253,8 +259,11 @@ void check_limiter_marks(const vk::Context& ctx, const Frame& host, const Frame&
     CHECK(differing <= (devtol::exact(ctx) ? 0 : devtol::allowed_diverging(ctx, host.steps.size())));
     INFO(past_limit << " rays need over 65,535 samples; " << marked << " marked on the device");
     CHECK(past_limit > 0);
-    if (ctx.describe().find("llvmpipe") != std::string::npos) CHECK(marked > 0);
-    if (!ctx.is_cpu()) CHECK(marked == 0);  // a GPU has no loop limiter: every ray whole (the H200: none marked)
+    if (vk::loops_limited(ctx)) {
+        CHECK(marked > 0);  // lavapipe up to Mesa 22.3: the rays past its limiter
+    } else {
+        CHECK(marked == 0);  // no loop limiter (a GPU, lavapipe 25): every ray whole (the H200: none marked)
+    }
 }
 
 TEST_CASE("vulkan: a DVR ray past lavapipe's loop limiter is marked an error, never drawn short", "[parity][dvr][errors]") {
@@ -299,3 +308,4 @@ TEST_CASE("vulkan: an iso ray past lavapipe's loop limiter is marked an error, n
     Frame device = vk::render_octree_iso_vulkan(ctx, dev, p);
     check_limiter_marks(ctx, host, device);
 }
+

@@ -16,6 +16,7 @@
 #include "sylva/spirv/test_double_words.h"
 #include "sylva/spirv/test_split_copy.h"
 #include "sylva/spirv/test_triple_words.h"
+#include "sylva/vulkan/loop_limit.hpp"
 #include "sylva/vulkan/runner.hpp"
 
 namespace {
@@ -124,6 +125,22 @@ TEST_CASE("SYLVA_VULKAN_DEVICE=cpu picks lavapipe (=gpu a GPU)", "[vulkan]") {
 
     Context moved = std::move(context);
     CHECK(moved.is_cpu() == !gpu_requested());
+}
+
+TEST_CASE("loops_limited: lavapipe 22 cuts long loops, lavapipe 25 and GPUs do not", "[vulkan]") {
+    Context context = test_context();
+    const std::uint32_t driver = context.properties().driverVersion;  // Mesa: VK_MAKE_VERSION(major, minor, patch)
+    const std::uint32_t major = VK_VERSION_MAJOR(driver);
+    INFO(context.describe() << ", driver version " << major << "." << VK_VERSION_MINOR(driver));
+    const bool limited = sylva::vk::loops_limited(context);
+    if (!context.is_cpu()) CHECK_FALSE(limited);
+    if (context.is_cpu() && major == 22) CHECK(limited);   // Debian 12's Mesa 22.3: 65,535 iterations a batch
+    if (context.is_cpu() && major >= 25) CHECK_FALSE(limited);  // bookworm-backports' Mesa 25.0
+    // Kept with the device: a second call, and a moved context, give the same answer.
+    CHECK(sylva::vk::loops_limited(context) == limited);
+    Context moved = std::move(context);
+    CHECK(moved.shared_device()->loops_limited.load() == (limited ? 1 : 0));
+    CHECK(sylva::vk::loops_limited(moved) == limited);
 }
 
 TEST_CASE("a device can be requested by index and by part of its name", "[vulkan]") {

@@ -1,9 +1,9 @@
 // sylva/shared/loop_cut.glsl -- GLSL only: whether the device's loop limiter cut this
 // invocation's loops short.
 //
-// Lavapipe (llvmpipe) runs 8 invocations as one SIMD batch and ends every loop of the batch,
-// silently, once 65,535 loop iterations have run in all of them together (docs/DESIGN.md,
-// Vulkan runner). A loop it cuts leaves whatever state it had: a traversal may then end as if it
+// Lavapipe up to Mesa 22.3 (Debian 12's own) runs 8 invocations as one SIMD batch and ends every
+// loop of the batch, silently, once 65,535 loop iterations have run in all of them together
+// (docs/DESIGN.md, Vulkan runner; Mesa 25 and GPUs have no such limiter, vk::loops_limited). A loop it cuts leaves whatever state it had: a traversal may then end as if it
 // were done, so a shader cannot tell a cut from its own status. What it can tell: once the
 // limiter has run out, every loop stops after one iteration. A kernel calls sylva_loops_cut()
 // after its work, in every invocation whatever its status, and marks (or runs again) the rays of

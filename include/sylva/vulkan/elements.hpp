@@ -29,6 +29,7 @@
 #include "sylva/render/elements.hpp"
 #include "sylva/vulkan/bih.hpp"
 #include "sylva/vulkan/kernel.hpp"
+#include "sylva/vulkan/loop_limit.hpp"
 #include "sylva/vulkan/rays.hpp"
 #include "sylva/vulkan/runner.hpp"
 
@@ -48,9 +49,9 @@ struct ElementPush {
 };
 static_assert(sizeof(ElementPush) == 100);
 
-/// Loop iterations a ray of the image kernel may run in one dispatch on a CPU device. Lavapipe
-/// ends all loops of a SIMD batch of 8 invocations once 65,535 iterations have run in them
-/// together; the kernel notices (sylva_loops_cut in element_main.glsl) and such a ray runs its
+/// Loop iterations a ray of the image kernel may run in one dispatch on a device that cuts long
+/// loops (vk::loops_limited: lavapipe up to Mesa 22.3, Debian 12's own). It ends all loops of a
+/// SIMD batch of 8 invocations once 65,535 iterations have run in them together; the kernel notices (sylva_loops_cut in element_main.glsl) and such a ray runs its
 /// stretch again in a later dispatch with half its budget, so the limiter costs time, never a
 /// wrong or missing pixel. A ray past its budget pauses once it composited a hit and resumes
 /// from it in the next dispatch (sylva_elements_composite_resume), at the cost of walking its
@@ -159,7 +160,7 @@ public:
     }
 
     /// Front-to-back compositing of a camera image; same layout as sylva::render_elements_cpu.
-    /// Rays that spend the loop budget (loop_budget(): on a CPU device, kCpuDeviceLoopBudget)
+    /// Rays that spend the loop budget (loop_budget(): kCpuDeviceLoopBudget where loops are cut)
     /// or that the device's loop limiter cut short are run on by further dispatches over the
     /// rectangle of those pixels until none is left (at most kMaxResumes; a ray still running
     /// then is marked an error). A resumed ray walks its index again from the start for the hits
@@ -212,11 +213,12 @@ public:
 
     /// Dispatches after the first that the last render() needed to finish its paused rays.
     [[nodiscard]] std::uint32_t resumes() const { return resumes_; }
-    /// Loop iterations a ray may run in one dispatch of render(): kCpuDeviceLoopBudget on a CPU
-    /// device, unlimited (0xFFFFFFFF) on others, unless set_loop_budget chose one.
+    /// Loop iterations a ray may run in one dispatch of render(): kCpuDeviceLoopBudget on a
+    /// device that cuts long loops (vk::loops_limited), unlimited (0xFFFFFFFF) on others (GPUs,
+    /// lavapipe 25), unless set_loop_budget chose one.
     [[nodiscard]] std::uint32_t loop_budget() const {
         if (loop_budget_ != 0) return loop_budget_;
-        return ctx_->is_cpu() ? kCpuDeviceLoopBudget : 0xFFFFFFFFu;
+        return loops_limited(*ctx_) ? kCpuDeviceLoopBudget : 0xFFFFFFFFu;
     }
     /// Sets the budget (1 .. 0xFFFFFFFF; 0 restores the device's default), e.g. to exercise
     /// resumption on small scenes.

@@ -7,6 +7,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <atomic>
 #include <cstdint>
 #include <mutex>
 #include <string>
@@ -108,6 +109,8 @@ struct Device {
     VkPhysicalDeviceMemoryProperties memory{};
     DeviceFeatures features{};
     VkDeviceSize max_allocation_bytes = 0;
+    /// Whether the device cuts long loops: -1 not probed yet, 0 no, 1 yes (vk::loops_limited).
+    std::atomic<int> loops_limited{-1};
     std::mutex submit_mutex;  ///< Guards the command buffer, the fence and descriptor updates.
 
     Device() = default;
