@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Makes sure the Debian 12 packages sylva needs to build and test are installed.
-# Quiet when all are there (and lavapipe is bookworm-backports', below). Otherwise: as root, installs the missing ones (fresh CI machines and
-# containers); as anyone else, prints the command to run and fails, rather than prompting for sudo.
+# Quiet when all are there (lavapipe included: bookworm-backports', below). Otherwise: as root,
+# installs the missing ones (fresh CI machines and containers); as anyone else, prints the
+# command to run and fails, rather than prompting for sudo.
 #   scripts/deps.sh          check and install
 #   scripts/deps.sh --list   print the package names, one a line (scripts/check-deps.sh reads them)
 # The list is complete for a minimal Debian 12 (debootstrap --variant=minbase): scripts/fresh-check.sh
@@ -48,10 +49,13 @@ for pkg in "${packages[@]}"; do
 done
 
 # lavapipe from Debian 12's own backports (bookworm-backports: mesa-vulkan-drivers 25.0, built
-# against the same LLVM 15), not bookworm's 22.3: it runs the same SPIR-V 1.8-4.2x faster with
+# against the same LLVM 15), not bookworm's 22.3: it runs the same SPIR-V 1.8-4.3x faster with
 # the same images bit for bit (README, "lavapipe from bookworm-backports"). Backports are pinned
-# below the release (priority 100), so only this package and what it needs (libdrm) come from
-# there. SYLVA_LAVAPIPE=debian keeps bookworm's lavapipe (every test passes on both).
+# below the release (priority 100), so only this package and what it needs come from there
+# (libdrm, mesa-libgallium, and the Mesa libraries already installed, which apt keeps at one
+# version). SYLVA_LAVAPIPE=debian keeps bookworm's lavapipe (every test passes on both), and so
+# does a failure to get backports' (a warning; the source this script added is taken out again).
+# The source names the machine's Debian mirror, or SYLVA_BACKPORTS_MIRROR.
 lavapipe_min=25
 lavapipe_wanted() {  # true when this is Debian 12 and the installed lavapipe is older than backports'
   [[ ${SYLVA_LAVAPIPE:-backports} != debian ]] || return 1
@@ -60,18 +64,29 @@ lavapipe_wanted() {  # true when this is Debian 12 and the installed lavapipe is
   v=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)
   [[ -z $v ]] || dpkg --compare-versions "$v" lt "$lavapipe_min~"
 }
-install_lavapipe() {
+install_lavapipe() {  # never fatal: where backports cannot be had, bookworm's lavapipe stays
+  local added=""
   if ! grep -rqs 'bookworm-backports' /etc/apt/sources.list /etc/apt/sources.list.d/; then
-    local mirror=http://deb.debian.org/debian
-    if [[ -f /etc/apt/sources.list.d/debian.sources ]]; then  # the machine's mirror, when it names one
+    local mirror=${SYLVA_BACKPORTS_MIRROR:-}
+    if [[ -z $mirror && -f /etc/apt/sources.list.d/debian.sources ]]; then  # the machine's mirror
       mirror=$(awk '/^URIs:/ && $2 !~ /security/ {print $2; exit}' /etc/apt/sources.list.d/debian.sources)
-      mirror=${mirror:-http://deb.debian.org/debian}
     fi
+    mirror=${mirror:-http://deb.debian.org/debian}
+    added=/etc/apt/sources.list.d/sylva-bookworm-backports.sources
     printf 'Types: deb\nURIs: %s\nSuites: bookworm-backports\nComponents: main\nSigned-By: /usr/share/keyrings/debian-archive-keyring.gpg\n' \
-      "$mirror" >/etc/apt/sources.list.d/sylva-bookworm-backports.sources
+      "$mirror" >"$added"
   fi
-  apt-get update
-  DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends -t bookworm-backports mesa-vulkan-drivers
+  if apt-get update &&
+    DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends -t bookworm-backports mesa-vulkan-drivers; then
+    return 0
+  fi
+  echo "deps.sh: warning: could not install lavapipe from bookworm-backports; keeping" \
+    "mesa-vulkan-drivers $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || echo '(none)')" >&2
+  if [[ -n $added ]]; then  # a source that cannot be reached would break later updates
+    rm -f "$added"
+    apt-get update || true
+  fi
+  return 0
 }
 
 lavapipe=0

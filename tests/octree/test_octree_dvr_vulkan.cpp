@@ -308,4 +308,3 @@ TEST_CASE("vulkan: an iso ray past lavapipe's loop limiter is marked an error, n
     Frame device = vk::render_octree_iso_vulkan(ctx, dev, p);
     check_limiter_marks(ctx, host, device);
 }
-

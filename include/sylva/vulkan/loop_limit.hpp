@@ -24,13 +24,13 @@ namespace sylva::vk {
 inline constexpr std::uint32_t kLoopLimitProbeTrips = 200000;
 
 /// True when `context`'s device cuts shader loops short after a fixed number of iterations
-/// (lavapipe up to Mesa 22.3). Probed with one dispatch of 64 invocations on first use (about a
-/// millisecond, plus the probe's pipeline), then cached with the device.
+/// (lavapipe up to Mesa 22.3). Probed with one dispatch of 64 invocations on first use, then
+/// cached with the device.
 inline bool loops_limited(Context& context) {
     std::atomic<int>& known = context.shared_device()->loops_limited;
     if (int k = known.load(); k >= 0) return k == 1;
     constexpr std::uint32_t kInvocations = 64;
-    std::vector<std::uint32_t> in(64);
+    std::vector<std::uint32_t> in(kInvocations);  // any words: the loop adds them up
     for (std::uint32_t i = 0; i < in.size(); ++i) in[i] = i * 2654435761u;
     Buffer in_buf(context, in.size() * 4), out_buf(context, kInvocations * 3 * 4);
     in_buf.upload(in);
