@@ -115,7 +115,7 @@ if ((${#missing[@]} > 0)); then
   apt-get update
   DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
 fi
-if ((lavapipe)) && lavapipe_wanted; then
+if ((lavapipe)); then
   echo "deps.sh: installing lavapipe (mesa-vulkan-drivers) from bookworm-backports" >&2
   install_lavapipe
 fi
