@@ -16,9 +16,10 @@
 //     and the index touched for the first time), frame_ms the median of the --runs frames after.
 //     A machine started minutes ago pays more for first touches than a process can show (its
 //     hypervisor maps pages on first use), so the cold figures here are a lower bound;
-//   * the 8-bit volumes also read natively (GridWords::native, 1 byte a sample, normalised on
-//     the fly to the same densities; rows *-u8grid: the default tree, its packets, the DDA), with
-//     grid_bytes of the float32 copy and of the uint8 grid;
+//   * the integer volumes also read natively (GridWords::native, 1 or 2 bytes a sample,
+//     normalised on the fly to the same densities; rows *-u8grid for the 8-bit files, *-u16grid
+//     for Marschner-Lobb: the default tree, its packets, the DDA), with grid_bytes of the float32
+//     copy and of the integer grid;
 //   * the images of the tree, its packets and the DDA must be identical (checked every case).
 // Peers on the same camera, rays, size and isovalue, on the same thread pool (rows as
 // render_iso_cpu splits them):
@@ -39,8 +40,10 @@
 //     of cuboids + BIH + LoD + encoding + node ranges, index_bytes the BIH and range words.
 //     Sampled, not exact: pixels_differing_from_tree counts pixels whose hit / miss differs
 //     from the implicit kd-tree's (reported, never fatal).
-// Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3
-// (float32 grids, densities in [0, 1]). JSON records {"case", "impl", "metric", "value", "unit"}.
+// Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3 as
+// 16-bit data, the paper's (volume::marschner_lobb's densities rounded to unorm16; before
+// 2026-12-07 the float32 densities themselves). Every walker reads the float32 densities
+// normalised from the integer data unless its row says *-u8grid / *-u16grid. JSON records {"case", "impl", "metric", "value", "unit"}.
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512,ml1024] [--size N] [--runs R]
 //                   [--iso V] [--json FILE] [--threads T] [--no-peers] [--alt-bricks N] [--alt-bits 8|16]
 // --no-peers leaves out nanovdb-hdda and bih-iso (whose builds dominate the run at ML 512^3).
@@ -49,6 +52,7 @@
 // it was stopped at 24 GB resident before its first frame.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -109,7 +113,7 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
         "the same rays (memory, rays/s, steps), with NanoVDB's HDDA and the voxel BIH as peers",
         "sylva-iso-bench");
     app->footer(
-        "Cases: aneurism and bonsai (../shared/data, 8-bit), mlN: Marschner-Lobb at N^3 (float32).\n"
+        "Cases: aneurism and bonsai (../shared/data, 8-bit), mlN: Marschner-Lobb at N^3 (16-bit data, also read as float32).\n"
         "ml1024 needs more than 24 GB even with --no-peers. The images of the tree, its packets and\n"
         "the DDA must be identical; a peer's may differ on up to 0.1% of the pixels.\n"
         "Exit status: 0 on success, 1 on errors or differing images, 2 on bad usage.");
@@ -148,17 +152,39 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
     return app;
 }
 
-/// A case's density grid, and for a file its uint8 volume (rendered natively too).
+/// A case's density grid and the integer volume it was normalised from (rendered natively
+/// too): uint8 for the files, uint16 for Marschner-Lobb.
 struct CaseData {
     volume::DensityGrid grid;
     std::optional<volume::Volume> raw;
 };
 
+/// Marschner-Lobb at n^3 as 16-bit data, the paper's (Wald et al. 5.2 assume 16-bit densities,
+/// Table III lists ML as 16-bit): volume::marschner_lobb's densities rounded to unorm16, value
+/// range 0..65535.
+volume::Volume marschner_lobb_u16(std::uint32_t n) {
+    volume::DensityGrid g = volume::marschner_lobb({n, n, n});
+    volume::Volume v;
+    v.type = volume::ScalarType::U16;
+    v.dims = g.dims;
+    v.spacing = g.spacing;
+    v.bytes.resize(g.values.size() * 2);
+    for (std::size_t i = 0; i < g.values.size(); ++i) {
+        auto q = static_cast<std::uint16_t>(std::lround(std::clamp(g.values[i], 0.0f, 1.0f) * 65535.0f));
+        std::memcpy(v.bytes.data() + 2 * i, &q, 2);
+    }
+    v.range_lo = 0.0f;
+    v.range_hi = 65535.0f;
+    v.range_source = volume::RangeSource::Type;
+    return v;
+}
+
 /// The data of a case; nullopt (with a message) when a data file is missing.
 std::optional<CaseData> grid_of(const std::string& c) {
     if (c.rfind("ml", 0) == 0) {
-        std::uint32_t n = static_cast<std::uint32_t>(std::stoul(c.substr(2)));
-        return CaseData{volume::marschner_lobb({n, n, n}), std::nullopt};
+        volume::Volume v = marschner_lobb_u16(static_cast<std::uint32_t>(std::stoul(c.substr(2))));
+        volume::DensityGrid g = volume::normalize(v);
+        return CaseData{std::move(g), std::move(v)};
     }
     std::string path = std::string(SYLVA_ISO_BENCH_DATA) + "/" + c + "_256x256x256_uint8.raw";
     try {
@@ -541,17 +567,19 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     cs.push_back(iso_contender(alt + "-packet", words[1], gw, p, IsoWalker::Tree, pool, 4));
     cs.push_back(iso_contender(names[2], words[2], gw, p, IsoWalker::Tree, pool));
     cs.push_back(iso_contender("dda", words[2], gw, p, IsoWalker::Dda, pool));
-    // The 8-bit volumes read natively (GridWords::native: 1 byte a sample, normalised on the fly,
-    // the same densities): the default tree, its packets and the DDA again.
+    // The integer volumes read natively (GridWords::native: 1 or 2 bytes a sample, normalised on
+    // the fly, the same densities): the default tree, its packets and the DDA again.
     std::optional<GridWords> native;
     if (data->raw) {
         native = GridWords::native(*data->raw);
+        const bool u16 = data->raw->type == volume::ScalarType::U16;
+        const std::string grid = u16 ? "-u16grid" : "-u8grid";
         out.push_back({c, "grid-float32", "grid_bytes", double(gw.grid_bytes()), "bytes"});
-        out.push_back({c, "grid-uint8", "grid_bytes", double(native->grid_bytes()), "bytes"});
-        cs.push_back(iso_contender(names[0] + "-u8grid", words[0], *native, p, IsoWalker::Tree, pool));
-        cs.push_back(iso_contender("implicit-kd-packet-u8grid", words[0], *native, p, IsoWalker::Tree, pool, 4));
-        cs.push_back(iso_contender("implicit-kd-packet8-u8grid", words[0], *native, p, IsoWalker::Tree, pool, 8));
-        cs.push_back(iso_contender("dda-u8grid", words[2], *native, p, IsoWalker::Dda, pool));
+        out.push_back({c, u16 ? "grid-uint16" : "grid-uint8", "grid_bytes", double(native->grid_bytes()), "bytes"});
+        cs.push_back(iso_contender(names[0] + grid, words[0], *native, p, IsoWalker::Tree, pool));
+        cs.push_back(iso_contender("implicit-kd-packet" + grid, words[0], *native, p, IsoWalker::Tree, pool, 4));
+        cs.push_back(iso_contender("implicit-kd-packet8" + grid, words[0], *native, p, IsoWalker::Tree, pool, 8));
+        cs.push_back(iso_contender("dda" + grid, words[2], *native, p, IsoWalker::Dda, pool));
     }
     const std::size_t trees = cs.size();
     std::unique_ptr<BihIsoIndex> bih_store;
