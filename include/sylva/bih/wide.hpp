@@ -869,7 +869,7 @@ private:
             [[nodiscard]] const std::uint32_t* begin() const { return id; }
             [[nodiscard]] const std::uint32_t* end() const { return id + n; }
         };
-        [[nodiscard]] Kids children(std::uint32_t n) const {
+        [[nodiscard]] SYLVA_FORCEINLINE Kids children(std::uint32_t n) const {
             const Node& node = tree.nodes[n];
             Kids k{};
             if (node.leaf()) return k;
@@ -906,13 +906,13 @@ private:
         }
 
         /// A subtree that becomes one leaf: a BIH leaf, or a small contiguous subtree.
-        [[nodiscard]] bool leaf_like(std::uint32_t n) const {
+        [[nodiscard]] SYLVA_FORCEINLINE bool leaf_like(std::uint32_t n) const {
             const detail::SubtreeFacts& f = facts[n];
             return tree.nodes[n].leaf() || (f.contiguous() && f.count <= leaf_size);
         }
 
         /// The non-empty children of BIH node n (none for a leaf).
-        [[nodiscard]] Kids spread_kids(std::uint32_t n) const {
+        [[nodiscard]] SYLVA_FORCEINLINE Kids spread_kids(std::uint32_t n) const {
             Kids k{};
             for (std::uint32_t c : children(n))
                 if (facts[c].count != 0) k.id[k.n++] = c;
