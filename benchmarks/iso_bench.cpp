@@ -43,7 +43,8 @@
 // Cases: the aneurism and bonsai of ../shared/data (8-bit), Marschner-Lobb at 32^3 .. 512^3 as
 // 16-bit data, the paper's (volume::marschner_lobb's densities rounded to unorm16; before
 // 2026-12-07 the float32 densities themselves). Every walker reads the float32 densities
-// normalised from the integer data unless its row says *-u8grid / *-u16grid. JSON records {"case", "impl", "metric", "value", "unit"}.
+// normalised from the integer data unless its row says *-u8grid / *-u16grid.
+// JSON records {"case", "impl", "metric", "value", "unit"}.
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512,ml1024] [--size N] [--runs R]
 //                   [--iso V] [--json FILE] [--threads T] [--no-peers] [--alt-bricks N] [--alt-bits 8|16]
 // --no-peers leaves out nanovdb-hdda and bih-iso (whose builds dominate the run at ML 512^3).
@@ -113,7 +114,8 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
         "the same rays (memory, rays/s, steps), with NanoVDB's HDDA and the voxel BIH as peers",
         "sylva-iso-bench");
     app->footer(
-        "Cases: aneurism and bonsai (../shared/data, 8-bit), mlN: Marschner-Lobb at N^3 (16-bit data, also read as float32).\n"
+        "Cases: aneurism and bonsai (../shared/data, 8-bit), mlN: Marschner-Lobb at N^3 (16-bit data,\n"
+        "also read as float32).\n"
         "ml1024 needs more than 24 GB even with --no-peers. The images of the tree, its packets and\n"
         "the DDA must be identical; a peer's may differ on up to 0.1% of the pixels.\n"
         "Exit status: 0 on success, 1 on errors or differing images, 2 on bad usage.");

@@ -202,8 +202,8 @@ inline std::size_t partition_by_sides(Prim* a, std::size_t n, int axis, const st
 /// Not inlined, and starting on a 64-byte boundary, so that its loop sits at the same place in
 /// the instruction cache lines in every program: inlined into the builder, its speed depended on
 /// where unrelated code put the builder's function (sylva-bench, the same source but for a
-/// change in sylva/bih/wide.hpp: the WideTree's source BIH at 10^5 spheres 5.5-5.6 or 4.5-4.6
-/// ms a build, at 10^6 77-82 or 61-63 ms; pinned like this 4.5-4.7 and 63-64 in both programs).
+/// change in sylva/bih/wide.hpp: the WideTree's source BIH at 10^5 spheres 5.5-6.0 or 4.4-4.7
+/// ms a build, at 10^6 77-82 or 60-63 ms; pinned like this 4.5-4.7 and 63-64 in both programs).
 [[gnu::noinline, gnu::aligned(64)]] inline std::size_t partition_in_place(Prim* a, std::size_t n, int axis, float cut,
                                                                           float& left_max, float& right_min) {
     return lomuto_partition(a, n, axis, [axis, cut](std::size_t, const Prim& x) { return !(x.center(axis) <= cut); },
