@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
 # Makes sure the Debian 12 packages sylva needs to build and test are installed.
-# Quiet when all are there. Otherwise: as root,
-# installs the missing ones (fresh CI machines and containers); as anyone else, prints the
-# command to run and fails, rather than prompting for sudo.
+# Quiet when all are there. Otherwise: as root, installs the missing ones (fresh CI machines and
+# containers); as anyone else, prints the command to run and fails, rather than prompting for sudo.
 #   scripts/deps.sh          check and install
 #   scripts/deps.sh --list   print the package names, one a line (scripts/check-deps.sh reads them)
 # The list is complete for a minimal Debian 12 (debootstrap --variant=minbase): scripts/fresh-check.sh

@@ -5,10 +5,10 @@
 // loop of the batch, silently, once 65,535 loop iterations have run in all of them together
 // (docs/DESIGN.md, Vulkan runner; Mesa 25 and GPUs have no such limiter, vk::loops_limited).
 // A loop it cuts leaves whatever state it had: a traversal may then end as if it were done, so
-// a shader cannot tell a cut from its own status. What it can tell: once the
-// limiter has run out, every loop stops after one iteration. A kernel calls sylva_loops_cut()
-// after its work, in every invocation whatever its status, and marks (or runs again) the rays of
-// a batch that was cut: never a short or wrong pixel. On a device without a limiter it is false.
+// a shader cannot tell a cut from its own status. What it can tell: once the limiter has run
+// out, every loop stops after one iteration. A kernel calls sylva_loops_cut() after its work,
+// in every invocation whatever its status, and marks (or runs again) the rays of a batch that
+// was cut: never a short or wrong pixel. On a device without a limiter it is false.
 #ifndef SYLVA_SHARED_LOOP_CUT_GLSL
 #define SYLVA_SHARED_LOOP_CUT_GLSL
 

@@ -54,10 +54,10 @@ static_assert(sizeof(ElementPush) == 100);
 /// SIMD batch of 8 invocations once 65,535 iterations have run in them together; the kernel
 /// notices (sylva_loops_cut in element_main.glsl) and such a ray runs its stretch again in a
 /// later dispatch with half its budget, so the limiter costs time, never a wrong or missing
-/// pixel. A ray past its budget pauses once it composited a hit and resumes
-/// from it in the next dispatch (sylva_elements_composite_resume), at the cost of walking its
-/// index again. 16,000 measured best of 8,000-24,000 on the halo (32,314 particles, 640 x 480:
-/// no pixel lost on the BIH or the element octree, 0.9-1.2 s a frame).
+/// pixel. A ray past its budget pauses once it composited a hit and resumes from it in the next
+/// dispatch (sylva_elements_composite_resume), at the cost of walking its index again. 16,000
+/// measured best of 8,000-24,000 on the halo (32,314 particles, 640 x 480: no pixel lost on the
+/// BIH or the element octree, 0.9-1.2 s a frame).
 inline constexpr std::uint32_t kCpuDeviceLoopBudget = 16000;
 
 /// Element records uploaded once. `record_words` is sylva::element_words<E>() of their type.
