@@ -99,6 +99,7 @@ struct Options {
     bool peers = true;
     std::uint32_t alt_bricks = 6;  ///< the second tree: brick levels ...
     std::uint32_t alt_bits = 8;    ///< ... and node bits
+    std::vector<std::string> drop;  ///< --drop A,B: Fig. 7's drop from ML case A to B, side by side
 };
 
 struct Record {
@@ -149,6 +150,14 @@ std::unique_ptr<CLI::App> make_app(Options& o) {
         ->type_name("8|16")
         ->capture_default_str()
         ->check(CLI::IsMember({8u, 16u}));
+    app->add_option("--drop", o.drop,
+                    "two Marschner-Lobb cases, e.g. ml32,ml512: render them in alternation, frame by frame, "
+                    "and report each walker's drop in rays/s from the first to the second (Fig. 7) as the "
+                    "median of the rounds' ratios; runs instead of --cases")
+        ->type_name("A,B")
+        ->delimiter(',')
+        ->expected(2)
+        ->check(CLI::IsMember({"ml32", "ml64", "ml128", "ml256", "ml512", "ml1024"}));
     app->add_flag_callback("--no-peers", [&o] { o.peers = false; },
                            "leave out nanovdb-hdda and bih-iso (their builds dominate the run at ML 512^3)");
     return app;
@@ -609,6 +618,82 @@ void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vec
     out.push_back({c, "data", "data_bytes", double(data_bytes), "bytes"});
 }
 
+/// One size of --drop: the data, its grids and the default tree, and the frame parameters;
+/// in place (the contenders hold references to its words and grids).
+struct DropSide {
+    std::string c;
+    std::optional<CaseData> data;
+    GridWords gw, native;
+    std::vector<std::uint32_t> words;
+    IsoRenderParams p;
+};
+
+/// Fig. 7 side by side (--drop A,B): the default tree over Marschner-Lobb at sizes A and B,
+/// single rays and packets of 8, over the float32 densities and over the uint16 samples. After
+/// one cold frame each, every round renders each walker's frame at A and at B back to back (B
+/// first in odd rounds), so a change of the machine's speed during the run falls on both sizes
+/// alike, which the per-case round robin cannot promise for a ratio across two cases measured
+/// seconds apart. Per walker: rays/s and steps at each size (median frames), and the drop A -> B
+/// as the median, min and max over the rounds of frame_ms(B) / frame_ms(A), and as the ratio of
+/// the median rays/s. Each size's four images must be the same, bit for bit.
+void run_drop(const Options& o, ThreadPool& pool, std::vector<Record>& out) {
+    DropSide sides[2];
+    for (int s = 0; s < 2; ++s) {
+        DropSide& d = sides[s];
+        d.c = o.drop[static_cast<std::size_t>(s)];
+        d.data = grid_of(d.c);
+        if (!d.data) throw Error("--drop: no data for " + d.c);
+        d.gw = GridWords::from(d.data->grid);
+        d.native = GridWords::native(*d.data->raw);
+        d.words = ikd::encode(ikd::build(d.data->grid, pool, ikd::Config{}));
+        d.p.width = d.p.height = o.size;
+        d.p.camera = Camera::framing(d.data->grid.world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(o.size, o.size);
+        d.p.isos = {{o.iso, vec4(0.93f, 0.86f, 0.75f, 1.0f)}};
+    }
+    std::vector<Contender> cs[2];
+    for (DropSide& d : sides) {
+        std::vector<Contender>& k = cs[&d - sides];
+        k.push_back(iso_contender("implicit-kd", d.words, d.gw, d.p, IsoWalker::Tree, pool));
+        k.push_back(iso_contender("implicit-kd-u16grid", d.words, d.native, d.p, IsoWalker::Tree, pool));
+        k.push_back(iso_contender("implicit-kd-packet8", d.words, d.gw, d.p, IsoWalker::Tree, pool, 8));
+        k.push_back(iso_contender("implicit-kd-packet8-u16grid", d.words, d.native, d.p, IsoWalker::Tree, pool, 8));
+    }
+    const std::size_t walkers = cs[0].size();
+    for (auto& k : cs)
+        for (Contender& w : k) w.first_ms = (w.last = w.render(w.n)).ms;
+    std::vector<std::vector<double>> ratio(walkers);
+    for (std::size_t r = 0; r < o.runs; ++r)
+        for (std::size_t w = 0; w < walkers; ++w) {
+            for (int i = 0; i < 2; ++i) {
+                Contender& k = cs[(r % 2 == 0) ? i : 1 - i][w];
+                k.last = k.render(k.n);
+                k.ms.push_back(k.last.ms);
+            }
+            ratio[w].push_back(cs[1][w].ms.back() / cs[0][w].ms.back());
+        }
+    const std::string c = sides[0].c + "-" + sides[1].c;
+    const double rays = double(o.size) * o.size;
+    for (std::size_t w = 0; w < walkers; ++w) {
+        double rate[2];
+        for (int s = 0; s < 2; ++s) {
+            const Contender& k = cs[s][w];
+            rate[s] = rays / (median(k.ms) / 1000.0);
+            out.push_back({c, k.impl, "rays_per_s_" + sides[s].c, rate[s], "rays/s"});
+            out.push_back({c, k.impl, "first_frame_ms_" + sides[s].c, k.first_ms, "ms"});
+            out.push_back({c, k.impl, "steps_per_ray_" + sides[s].c, double(k.n.steps) / rays, "steps"});
+        }
+        const auto [lo, hi] = std::minmax_element(ratio[w].begin(), ratio[w].end());
+        out.push_back({c, cs[0][w].impl, "drop", median(ratio[w]), "x"});
+        out.push_back({c, cs[0][w].impl, "drop_min", *lo, "x"});
+        out.push_back({c, cs[0][w].impl, "drop_max", *hi, "x"});
+        out.push_back({c, cs[0][w].impl, "drop_of_medians", rate[0] / rate[1], "x"});
+    }
+    for (int s = 0; s < 2; ++s)
+        for (std::size_t w = 1; w < walkers; ++w)
+            check_same(cs[s][w].last, cs[s][0].last, sides[s].c, cs[s][w].impl, "image_equals_tree",
+                       cs[s][w].impl + "'s image differs from the default tree's", out);
+}
+
 void print(const std::vector<Record>& rs) {
     std::printf("%-10s %-18s %-26s %14s %s\n", "case", "impl", "metric", "value", "unit");
     for (const Record& r : rs) std::printf("%-10s %-18s %-26s %14.4g %s\n", r.c.c_str(), r.impl.c_str(), r.metric.c_str(), r.value, r.unit.c_str());
@@ -635,7 +720,10 @@ int main(int argc, char** argv) {
                      "the nanovdb-hdda peer is left out\n";
 #endif
         std::vector<Record> records;
-        for (const std::string& c : o.cases) run_case(c, o, pool, records);
+        if (!o.drop.empty())
+            run_drop(o, pool, records);
+        else
+            for (const std::string& c : o.cases) run_case(c, o, pool, records);
         print(records);
         if (!o.json.empty()) write_json(o.json, records);
         for (const Record& r : records) {
