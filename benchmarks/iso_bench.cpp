@@ -20,7 +20,11 @@
 //     normalised on the fly to the same densities; rows *-u8grid for the 8-bit files, *-u16grid
 //     for Marschner-Lobb: the default tree, its packets, the DDA), with grid_bytes of the float32
 //     copy and of the integer grid;
-//   * the images of the tree, its packets and the DDA must be identical (checked every case).
+//   * the images of the tree, its packets and the DDA must be identical (checked every case);
+//   * --drop A,B (instead of --cases): Fig. 7's drop in rays/s from Marschner-Lobb case A to B
+//     (e.g. ml32,ml512) for single rays and packets of 8 over the float32 and uint16 grids, the
+//     two sizes' frames alternating round by round (run_drop), as the median, min and max of the
+//     rounds' ratios. A ratio across two cases otherwise compares frames taken seconds apart.
 // Peers on the same camera, rays, size and isovalue, on the same thread pool (rows as
 // render_iso_cpu splits them):
 //   * nanovdb-hdda (when NanoVDB was found at configure time, SYLVA_ISO_BENCH_NANOVDB): a NanoVDB
@@ -47,6 +51,7 @@
 // JSON records {"case", "impl", "metric", "value", "unit"}.
 //   sylva-iso-bench [--cases aneurism,bonsai,ml32,ml64,ml128,ml256,ml512,ml1024] [--size N] [--runs R]
 //                   [--iso V] [--json FILE] [--threads T] [--no-peers] [--alt-bricks N] [--alt-bits 8|16]
+//   sylva-iso-bench --drop ml32,ml512 [--size N] [--runs R] [--iso V] [--json FILE] [--threads T]
 // --no-peers leaves out nanovdb-hdda and bih-iso (whose builds dominate the run at ML 512^3).
 // ml1024 needs more than 24 GB even with --no-peers (the float32 grid, its GridWords copy, the
 // slim tree's 4 GB of nodes and the build's level temporaries): on the project's 24 GB machines
