@@ -547,21 +547,26 @@ TEST_CASE("all_hits finds every hit when more nodes are pending than its queue h
     // A ray along a row of 20,000 spheres enters every node of the tree: hundreds of nodes are
     // pending at once, so the walk's queue (64 nodes) moves its pending nodes to the front and
     // then sends whole nodes' children to its stack. Every sphere is hit, each once, in order.
-    std::vector<Sphere> row = sphere_row(20000);
-    std::span<const Sphere> es(row);
-    for (std::uint32_t leaf : {4u, 8u}) {
-        bih::Tree tree = bih::build(es, bih::wide_source_config(row.size(), bih::WideConfig{leaf}));
-        bih::WideTree<Sphere> wide(tree, es, bih::WideConfig{leaf});
-        const Ray along{vec3(-5.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)};
-        CHECK(wide.visits(along).nodes == wide.stats().nodes);
-        std::vector<bih::ElementHit> hits;
-        bih::all_hits(wide, along, hits);
-        const auto expected = bih::brute_force_hits(es, along, Interval{});
-        REQUIRE(expected.size() == row.size());
-        REQUIRE(hits.size() == expected.size());
-        std::size_t differing = 0;
-        for (std::size_t i = 0; i < hits.size(); ++i) differing += hits[i].element == expected[i].element ? 0 : 1;
-        CHECK(differing == 0);
+    // 160,000 spheres make a tree of more than 1 MiB of nodes, which the walk prefetches with a
+    // queue of 256 nodes: thousands pending, the same overflow.
+    for (int count : {20000, 160000}) {
+        std::vector<Sphere> row = sphere_row(count);
+        std::span<const Sphere> es(row);
+        for (std::uint32_t leaf : {4u, 8u}) {
+            bih::Tree tree = bih::build(es, bih::wide_source_config(row.size(), bih::WideConfig{leaf}));
+            bih::WideTree<Sphere> wide(tree, es, bih::WideConfig{leaf});
+            if (count > 100000) CHECK(wide.stats().nodes * sizeof(bih::WideNode) > (std::size_t{1} << 20));
+            const Ray along{vec3(-5.0f, 0.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f)};
+            CHECK(wide.visits(along).nodes == wide.stats().nodes);
+            std::vector<bih::ElementHit> hits;
+            bih::all_hits(wide, along, hits);
+            const auto expected = bih::brute_force_hits(es, along, Interval{});
+            REQUIRE(expected.size() == row.size());
+            REQUIRE(hits.size() == expected.size());
+            std::size_t differing = 0;
+            for (std::size_t i = 0; i < hits.size(); ++i) differing += hits[i].element == expected[i].element ? 0 : 1;
+            CHECK(differing == 0);
+        }
     }
 }
 

@@ -538,9 +538,15 @@ private:
         // (1 MiB of nodes) the loop over the new children cost more than it saved (one thread,
         // 2e5 rays, alternating processes: at 10^4 spheres 0.43-0.55 -> 0.37-0.38 us a ray,
         // 10^5 1.24-1.54 -> 1.04-1.12 us; at 10^6 it saves 5-30 %).
+        // In such trees the queue holds up to 256 nodes, else 64: with 64, a ray through 10^7
+        // spheres overflowed it into the stack, whose nodes are not prefetched (sylva-bench
+        // --cases all, two rounds alternating the binaries: all hits at 10^7 1.48-1.50x Embree
+        // with 64, 1.64-1.66x with 256 for every tree; at 10^4-10^6 the same within the rounds'
+        // spread, so the trees that do not prefetch keep 64).
         const bool far = nodes_.size() > kFarNodes;
-        constexpr std::uint32_t kQueue = 64;
-        std::uint32_t queue[kQueue + kWideWidth];  // pending: queue[head, tail)
+        constexpr std::uint32_t kQueue = 256;
+        const std::uint32_t queue_cap = far ? kQueue : 64u;
+        std::uint32_t queue[kQueue + kWideWidth];  // pending: queue[head, tail), tail <= queue_cap
         std::uint32_t head = 0, tail = 0;
         std::uint32_t stack[kStack];
         std::uint32_t sp = 0, node = 0;
@@ -558,12 +564,12 @@ private:
             // the stores (one thread, 2e5 rays, alternating processes: clustered 10^4 spheres
             // 256 -> 199 ns a ray, clustered 10^5 622 -> 527, uniform 10^4 433 -> 401).
             const auto k = static_cast<std::uint32_t>(std::popcount(static_cast<unsigned>(inner)));
-            if (tail + k > kQueue && head != 0) {
+            if (tail + k > queue_cap && head != 0) {
                 std::copy(queue + head, queue + tail, queue);
                 tail -= head;
                 head = 0;
             }
-            if (tail + k <= kQueue) {
+            if (tail + k <= queue_cap) {
                 const std::uint32_t from = tail;
                 tail += static_cast<std::uint32_t>(Test::compress(n.child, inner, queue + tail));
                 if (far)
