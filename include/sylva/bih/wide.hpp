@@ -550,7 +550,11 @@ private:
         std::uint32_t head = 0, tail = 0;
         std::uint32_t stack[kStack];
         std::uint32_t sp = 0, node = 0;
-        constexpr std::uint32_t kFound = 64;
+        // The leaves found are tested in batches of up to 64, 128 in prefetched trees (their
+        // prefetches have longer to arrive: at 10^7 spheres, one thread, three alternating runs
+        // of a throw-away probe, 20.2-21.0 -> 19.9-20.2 us a ray).
+        constexpr std::uint32_t kFound = 128;
+        const std::uint32_t found_cap = far ? kFound : 64u;
         LeafRef found[kFound];  // not zeroed: only [0, nf) is read
         std::uint32_t nf = 0;
         for (;;) {
@@ -581,7 +585,7 @@ private:
             nf += static_cast<std::uint32_t>(Test::compress_pairs(n.child, n.count, leaves, found + nf));
             if (far)
                 for (std::uint32_t j = first_new; j < nf; ++j) detail::prefetch(&records_[found[j].first]);
-            if (nf > kFound - kWideWidth) {
+            if (nf > found_cap - kWideWidth) {
                 on_leaves(static_cast<const LeafRef*>(found), nf);
                 nf = 0;
             }
