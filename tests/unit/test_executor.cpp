@@ -151,3 +151,37 @@ TEST_CASE("a pool that polls for minutes still hands out work, and stops without
     }  // the destructor: its workers stop polling when told to stop
     CHECK(Clock::now() - start < std::chrono::minutes(1));
 }
+
+namespace {
+/// Whether every thread of `pool` runs a chunk of one parallel_for at the same time: each chunk
+/// waits (up to 5 s) until all of them have started, so that a worker that has left its loop
+/// (or never wakes) shows as a chunk that waited in vain.
+bool all_threads_run_together(ThreadPool& pool) {
+    const std::size_t n = pool.concurrency();
+    std::atomic<std::size_t> started{0}, met{0};
+    pool.parallel_for(0, n, 1, [&](std::size_t, std::size_t) {
+        started++;
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+        while (started.load() < n && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+        if (started.load() >= n) met++;
+    });
+    return met.load() == n;
+}
+template <class X>
+concept HasWakeHook = requires(X& x) { x.wake_workers(); };
+}  // namespace
+
+TEST_CASE("wake_workers leaves the workers working, asleep or polling, and the pool stops", "[executor]") {
+    for (auto spin : {std::chrono::microseconds(0), std::chrono::microseconds(200), std::chrono::microseconds(600000000)}) {
+        ThreadPool pool(3, spin);
+        for (int round = 0; round < 10; ++round) {
+            pool.wake_workers();  // with nothing queued: the workers poll, then block again
+            if (round % 3 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+            pool.wake_workers();
+            REQUIRE(all_threads_run_together(pool));
+        }
+        pool.wake_workers();  // a hint just before the destructor: it must still stop
+    }
+    STATIC_REQUIRE(HasWakeHook<ThreadPool>);
+    STATIC_REQUIRE(!HasWakeHook<SerialExecutor>);  // no hook: bih::build calls it only where there is one
+}

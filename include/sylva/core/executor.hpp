@@ -77,6 +77,23 @@ public:
 
     [[nodiscard]] std::size_t concurrency() const { return workers_.size() + 1; }
 
+    /// Wakes the workers that sleep, so that they poll for work (for up to `spin`) instead of
+    /// waiting for the first push to wake them: a caller about to fork work (bih::build) calls
+    /// it before its own serial start, so that the workers' wake-up overlaps that work. Why: a
+    /// blocked thread on these VMs, whose idle vCPUs halt at once (cpuidle haltpoll with
+    /// guest_halt_poll_ns 0), woke 30-60 us after the notify when it had slept about 2 ms, and
+    /// 1-4 ms after it had slept 10-100 ms (throw-away probe, 20 wakes each; README, "A
+    /// longer queue, and workers woken early"). Optional for executors: the builders call it
+    /// where a type has it. Does nothing for a pool that does not poll (`spin` = 0).
+    void wake_workers() {
+        if (spin_ns_ == 0 || workers_.empty()) return;
+        {
+            std::lock_guard lock(mutex_);
+            ++wake_hints_;
+        }
+        wake_.notify_all();
+    }
+
     template <class F>
     void parallel_for(std::size_t begin, std::size_t end, std::size_t grain, F&& f) {
         if (begin >= end) return;
@@ -261,6 +278,7 @@ private:
     }
     void work() {
         std::unique_lock lock(mutex_);
+        std::uint64_t hints = wake_hints_;
         for (;;) {
             if (queue_.empty() && !stopping_) {
                 lock.unlock();
@@ -269,8 +287,12 @@ private:
                 });
                 lock.lock();
             }
-            wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-            if (queue_.empty()) return;  // stopping, nothing left
+            wake_.wait(lock, [&] { return stopping_ || !queue_.empty() || wake_hints_ != hints; });
+            hints = wake_hints_;
+            if (queue_.empty()) {
+                if (stopping_) return;  // stopping, nothing left
+                continue;               // woken by wake_workers(): poll for the work to come
+            }
             Task task = queue_.front();
             queue_.pop_front();
             queued_.store(queue_.size(), std::memory_order_release);
@@ -296,6 +318,7 @@ private:
     alignas(64) std::atomic<std::size_t> queued_{0};
     alignas(64) std::mutex mutex_;
     std::condition_variable wake_;
+    std::uint64_t wake_hints_ = 0;  ///< wake_workers() calls so far; under mutex_
     std::atomic<bool> stopping_{false};  ///< written under mutex_; polled without it
 };
 
