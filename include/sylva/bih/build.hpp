@@ -827,12 +827,10 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     const std::size_t n = elements.size();
     const RegionRate regions = rate ? *rate : RegionRate::for_config(cfg);
     const bool parallel = exec.concurrency() > 1 && n > cfg.parallel_threshold;
-#ifndef SYLVA_NO_PREWAKE
     // The workers' wake-up overlaps the records' gathering and the first splits (an executor's
     // optional hook: ThreadPool::wake_workers says why).
     if constexpr (requires { exec.wake_workers(); })
         if (parallel) exec.wake_workers();
-#endif
     // Regions only where all of them have 32-bit node indices (beyond, the arena alone).
     const bool in_regions = parallel && regions.num && regions.offset(n) < std::numeric_limits<std::uint32_t>::max();
     std::optional<memory::RunArena<Node>> arena;
