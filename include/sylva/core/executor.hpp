@@ -83,8 +83,9 @@ public:
     /// blocked thread on these VMs, whose idle vCPUs halt at once (cpuidle haltpoll with
     /// guest_halt_poll_ns 0), woke 30-60 us (medians) after the notify when the notifying
     /// thread had waited busy for 2 ms, and 1-4 ms when it too had slept 2-100 ms (throw-away
-    /// probe, 20 wakes each; README, "A longer queue, and workers woken early"). Optional for executors: the builders call it
-    /// where a type has it. Does nothing for a pool that does not poll (`spin` = 0).
+    /// probe, 20 wakes each; README, "A longer queue, and workers woken early"). Optional for
+    /// executors: the builders call it where a type has it. Does nothing for a pool that does
+    /// not poll (`spin` = 0).
     void wake_workers() {
         if (spin_ns_ == 0 || workers_.empty()) return;
         {
