@@ -546,16 +546,23 @@ void check_same(const Frame& a, const Frame& b, const std::string& c, const std:
     if (!same) std::cerr << "sylva-iso-bench: " << c << ": " << what << "\n";
 }
 
+/// Every case's frame (and --drop's): o.size^2 pixels, one camera framing the volume, the
+/// isovalue o.iso, opaque.
+IsoRenderParams frame_params(const volume::DensityGrid& g, const Options& o) {
+    IsoRenderParams p;
+    p.width = p.height = o.size;
+    p.camera = Camera::framing(g.world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(o.size, o.size);
+    p.isos = {{o.iso, vec4(0.93f, 0.86f, 0.75f, 1.0f)}};
+    return p;
+}
+
 void run_case(const std::string& c, const Options& o, ThreadPool& pool, std::vector<Record>& out) {
     std::optional<CaseData> data = grid_of(c);
     if (!data) return;
     const volume::DensityGrid* g = &data->grid;
     std::size_t data_bytes = c.rfind("ml", 0) == 0 ? g->values.size() * 2 : g->values.size();  // ML: 16-bit, as Table III
     GridWords gw = GridWords::from(*g);
-    IsoRenderParams p;
-    p.width = p.height = o.size;
-    p.camera = Camera::framing(g->world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(o.size, o.size);
-    p.isos = {{o.iso, vec4(0.93f, 0.86f, 0.75f, 1.0f)}};
+    const IsoRenderParams p = frame_params(*g, o);
     // The three trees (the default; the second tree, by default 6 brick levels; the paper's slim
     // tree, 16-bit nodes and no bricks), each built twice: cold, then again.
     const ikd::Config configs[3] = {ikd::Config{}, ikd::Config{o.alt_bricks, o.alt_bits}, ikd::Config{0u, 16u}};
@@ -651,9 +658,7 @@ void run_drop(const Options& o, ThreadPool& pool, std::vector<Record>& out) {
         d.gw = GridWords::from(d.data->grid);
         d.native = GridWords::native(*d.data->raw);
         d.words = ikd::encode(ikd::build(d.data->grid, pool, ikd::Config{}));
-        d.p.width = d.p.height = o.size;
-        d.p.camera = Camera::framing(d.data->grid.world_box(), vec3(0.4f, 0.3f, 1.0f)).frame(o.size, o.size);
-        d.p.isos = {{o.iso, vec4(0.93f, 0.86f, 0.75f, 1.0f)}};
+        d.p = frame_params(d.data->grid, o);
     }
     std::vector<Contender> cs[2];
     for (DropSide& d : sides) {
