@@ -47,9 +47,9 @@ void check_wide_against_brute_force(const std::vector<E>& elems, const std::vect
         for (std::uint32_t leaf : {0u, 1u, 4u, 8u}) {
             INFO("BIH " << src.name << ", WideConfig::max_leaf_elements " << leaf);
             bih::WideTree<E> serial(tree, es, bih::WideConfig{leaf});
-            // The same tree through the pool's constructor (under 2^15 BIH nodes, as here, it
-            // is still made on the calling thread; the 50,000-sphere case below runs the
-            // parallel collapse): same counts, same answers.
+            // The same tree through the pool's constructor (from 2^13 BIH nodes, as some of
+            // these trees have, the collapse runs on the pool; the 50,000-sphere case below
+            // checks its node order in depth): same counts, same answers.
             bih::WideTree<E> wide(tree, es, bih::WideConfig{leaf}, pool);
             REQUIRE(wide.stats().nodes > 0);
             CHECK(wide.stats().nodes == serial.stats().nodes);
@@ -229,7 +229,7 @@ TEST_CASE("a WideTree holds every element once, inside every box above it", "[bi
 }
 
 TEST_CASE("a WideTree of 50,000 spheres made on a thread pool answers as the serial one", "[bih][wide]") {
-    // From 2^15 BIH nodes the refit forks and the subtrees below the top two wide levels are
+    // From 2^13 BIH nodes the refit forks and the subtrees below the top two wide levels are
     // made in parallel and appended: other node order, the same nodes, leaves, depth and hits.
     auto spheres = testing::random_spheres(50000, 86);
     std::span<const Sphere> ss(spheres);

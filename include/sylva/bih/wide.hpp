@@ -832,9 +832,15 @@ private:
                 }
         }
 
-        /// Trees of fewer BIH nodes are refitted and collapsed on the calling thread: at 10^4
-        /// spheres (7,000 nodes) handing out the work cost more than it saved.
-        static constexpr std::size_t kParallelNodes = std::size_t{1} << 15;
+        /// Trees of fewer BIH nodes are refitted, collapsed and filled on the calling thread,
+        /// without the sorted copy: at 10^4 spheres (7,000 nodes) handing out the work cost more
+        /// than it saved. 2^13: the collapse of a WideTree's source BIH over 10^5 clustered
+        /// spheres (about 27,000 nodes, which 2^15 kept on one thread) took 3.6 ms, 2.3 ms from
+        /// 2^13 (two threads; the refit 2.3 -> 1.3 ms, most of it the sorted copy's sequential
+        /// reads: 2.7 ms on one thread), and 2^12 brought 10^4 spheres the parallel make and
+        /// made it slower (0.08 -> 0.15 ms; throw-away probe timing the three steps, 40 collapses
+        /// each, 2 ms apart).
+        static constexpr std::size_t kParallelNodes = std::size_t{1} << 13;
         [[nodiscard]] bool parallel() const { return tree.nodes.size() >= kParallelNodes; }
         /// Levels of the BIH whose two subtrees subtree_facts refits in parallel.
         static constexpr std::uint32_t kParallelDepth = 6;
@@ -1216,7 +1222,7 @@ private:
                 out.records_.assign(records, SpherePacket{});
                 memory::prefault<std::uint32_t>(std::size_t{records} * 4u, exec);
                 out.ids_.assign(std::size_t{records} * 4u, kNoChild);
-                exec.parallel_for(0, jobs.size(), 1024, [&](std::size_t lo, std::size_t hi) {
+                auto fill_jobs = [&](std::size_t lo, std::size_t hi) {
                     for (std::size_t j = lo; j < hi; ++j) {
                         const LeafJob& job = jobs[j];
                         for (std::uint32_t k = 0; k < job.count; ++k) {
@@ -1228,7 +1234,13 @@ private:
                             out.ids_[std::size_t{job.record} * 4u + k] = id;
                         }
                     }
-                });
+                };
+                // Small trees on the calling thread: at 10^4 spheres (2,500 leaves) handing a
+                // chunk to a worker that slept cost more than the fill (0.055 -> 0.03 ms).
+                if (parallel())
+                    exec.parallel_for(0, jobs.size(), 1024, fill_jobs);
+                else
+                    fill_jobs(0, jobs.size());
             } else {  // any element type, default-constructible or not: in job (= record) order
                 (void)exec;
                 out.records_.reserve(records);
