@@ -22,6 +22,9 @@
 //    The buffer is chosen by the parameter's NAME in GLSL, by its value in C++: a helper
 //    declared with SYLVA_BUF(words) always reads `words` on the GPU, whatever is passed. Only
 //    pass a buffer on to a helper whose parameter has the same name (the parity tests catch it).
+//    `SYLVA_PREFETCH(name, i);` asks for the cache line of word i on the host (nothing past the
+//    end; no effect on results) and is empty in GLSL; host-only code that reads `name.size`
+//    (how many words) sits under `#ifdef __cplusplus`.
 //  * Buffers a shader does not bind: `#define SYLVA_NO_<NAME>` (TF, TFSUM, PARAMS, RAYS, GRID)
 //    before the first include and this header defines `sylva_load_<name>` returning 0, so a
 //    shader never writes loaders for buffers it does not read (e.g. SYLVA_NO_TF with the TF hook
@@ -75,6 +78,16 @@ struct Words {
     [[nodiscard]] std::uint32_t byte_at(std::size_t i) const noexcept {
         return i < size * 4 ? std::uint32_t{reinterpret_cast<const unsigned char*>(data)[i]} : 0u;
     }
+    /// A hint that word i will be read soon (the cache line that holds it); nothing past the end.
+    void prefetch(std::size_t i) const noexcept {
+        if (i >= size) return;
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+        // Not __builtin_prefetch: GCC deletes a loop whose body only prefetches (no side effects).
+        asm volatile("prefetcht0 %0" : : "m"(*reinterpret_cast<const char*>(data + i)));
+#else
+        __builtin_prefetch(data + i);
+#endif
+    }
     /// 16-bit half i of the words, little-endian (bits 16 (i & 1) .. of word i >> 1); 0 past the end.
     [[nodiscard]] std::uint32_t half_at(std::size_t i) const noexcept {
         if (i >= size * 2) return 0u;
@@ -99,6 +112,7 @@ static_assert(std::endian::native == std::endian::little,
 #define SYLVA_LOAD(name, i) (name)[(i)]
 #define SYLVA_LOAD_U8(name, i) (name).byte_at(i)
 #define SYLVA_LOAD_U16(name, i) (name).half_at(i)
+#define SYLVA_PREFETCH(name, i) (name).prefetch(i)
 #define SYLVA_PASS_BUF(name) name
 #define SYLVA_PRECISE
 #define SYLVA_CONST constexpr
@@ -123,6 +137,7 @@ static_assert(std::endian::native == std::endian::little,
 #define SYLVA_LOAD(name, i) sylva_load_##name(i)
 #define SYLVA_LOAD_U8(name, i) ((sylva_load_##name((i) >> 2u) >> (((i) & 3u) * 8u)) & 255u)
 #define SYLVA_LOAD_U16(name, i) ((sylva_load_##name((i) >> 1u) >> (((i) & 1u) * 16u)) & 65535u)
+#define SYLVA_PREFETCH(name, i)
 #define SYLVA_PASS_BUF(name) 0u
 #define SYLVA_PRECISE precise
 #define SYLVA_CONST const
