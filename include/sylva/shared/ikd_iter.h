@@ -435,7 +435,7 @@ SYLVA_FN_HOT bool sylva_ikd_cell_holds(SYLVA_BUF(grid), SYLVA_IN(SylvaIkdHeader)
 /// the walk enters the brick, so that they load while it descends the brick's levels to the
 /// cells. In a shader nothing. No effect on results. Why: at Marschner-Lobb 512^3 (a 268 MB
 /// uint16 grid) a step of the walk cost about a fifth more than at 32^3, the grid's loads
-/// missing the caches and the TLB; with the prefetch the 512^3 frames were 7 % faster (README,
+/// missing the caches and the TLB; with the prefetch the 512^3 frames were 3-8 % faster (README,
 /// Wald section, "A brick's samples asked for early").
 SYLVA_FN_HOT void sylva_ikd_prefetch_brick(SYLVA_BUF(grid), SYLVA_IN(SylvaIkdHeader) h, uvec3 o, uvec3 w) {
 #ifdef __cplusplus
