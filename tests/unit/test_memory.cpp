@@ -183,7 +183,7 @@ TEST_CASE("large blocks are 2 MiB aligned, cached on free and reused warm", "[me
     memory::configure(keep);
 }
 
-TEST_CASE("blocks of 16 KiB to 1 MiB are carved from 2 MiB chunks, cached on free and reused warm", "[memory]") {
+TEST_CASE("blocks of 16 KiB up to 2 MiB are carved from 2 MiB chunks, cached on free and reused warm", "[memory]") {
     memory::Config keep = memory::config();
     // limit 0: a chunk's huge page is taken whatever it costs, so the pool stays on wherever
     // the kernel gives huge pages at all (THP "madvise" or "always").
@@ -234,6 +234,16 @@ TEST_CASE("blocks of 16 KiB to 1 MiB are carved from 2 MiB chunks, cached on fre
             CHECK(address(blocks.back().data() + blocks.back().size() - 1) / memory::kPoolChunk == chunk);
         } else {
             WARN("no huge pages here (THP off?): small blocks were mapped one by one");
+        }
+        // A block between 1 and 2 MiB is carved too (kLargeBlock is one huge page): it lies in
+        // one chunk, 16 KiB-aligned, and takes at most one new chunk.
+        const memory::Stats s5 = memory::stats();
+        LargeVector<std::uint8_t> mid(1100000, 9);  // 1.1 MB: 68 x 16 KiB
+        CHECK(address(mid.data()) % memory::kCachedBlock == 0);
+        CHECK(mid[1099999] == 9u);
+        if (!memory::stats().pool_off) {
+            CHECK(memory::stats().pool_chunks <= s5.pool_chunks + 1);
+            CHECK(address(mid.data()) / memory::kPoolChunk == address(mid.data() + mid.size() - 1) / memory::kPoolChunk);
         }
     }
     {

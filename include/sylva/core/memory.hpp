@@ -73,11 +73,18 @@ namespace sylva::memory {
 inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 
 /// Blocks of at least this many bytes are mapped 2 MiB-aligned (huge pages where advised) and
-/// cached on free. 1 MiB: below it, one huge page would be mostly unused. A constant, so a
-/// block is freed the way it was allocated whatever the settings do meanwhile.
-inline constexpr std::size_t kLargeBlock = std::size_t{1} << 20;
+/// cached on free. 2 MiB, one huge page: a smaller block shares a chunk's huge page with others
+/// (kPoolChunk) instead of taking one of its own. It was 1 MiB until 2026-12-07, when a block of
+/// 1.06 MB (the node array of a default BIH over 10^4 spheres) took a whole huge page beside the
+/// chunk that held the build's other arrays, two fresh huge pages in a first build instead of
+/// one (sylva-bench's cold children of that build, 8 processes of each binary alternated:
+/// median 2.67 -> 2.34 ms uniform and 2.67 -> 2.36 clustered, Embree's 3.02 and 2.58, on a VM
+/// where a fresh huge page cost 0.34-6.9 ms; 10^5 and 10^6 and steady builds the same within
+/// the spread; README, "Known gaps"). A constant, so a block is freed the way it was allocated
+/// whatever the settings do meanwhile.
+inline constexpr std::size_t kLargeBlock = std::size_t{2} << 20;
 
-/// Blocks from this many bytes up to kLargeBlock (in multiples of it) come from this allocator
+/// Blocks from this many bytes up to kLargeBlock (in multiples of this) come from this allocator
 /// and are cached on free as well; smaller ones use operator new. Why: a build over 10^4-10^5
 /// elements has arrays of 16 KiB-1 MiB (the BIH's scratch and order, the WideTree's facts,
 /// nodes, leaf records and ids), and glibc takes them from a heap whose top it gives back, or
@@ -592,7 +599,7 @@ public:
     };
 
     /// Blocks of `block_elements` T (at least 64; more where one run asks for more), from
-    /// LargeAllocator: huge pages from kLargeBlock bytes on, cached 4 KiB-page blocks below (for
+    /// LargeAllocator: huge pages from kLargeBlock bytes on, carved cached blocks below (for
     /// arenas whose whole content is smaller than a huge page). Blocks mapped on other threads keep the page
     /// choice of a SmallPagesWhereCheap scope open on the thread that made the arena.
     explicit RunArena(std::size_t block_elements)
