@@ -823,7 +823,7 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     // from its 2 MiB chunks: at 10^4 spheres a 2 MiB huge page of its own for ~100 nodes was a
     // tenth of a cold build). Without regions (a zero rate) the arena holds every chunk: blocks
     // of about 1/16 of the nodes expected (reserve_for's estimate), between 1 and 64 MiB, or one
-    // block where all of them fit in 1 MiB. (1 MiB, not memory::kLargeBlock: two runs a chunk.)
+    // block where all of them fit in 1 MiB (memory::kArenaBlock).
     const std::size_t n = elements.size();
     const RegionRate regions = rate ? *rate : RegionRate::for_config(cfg);
     const bool parallel = exec.concurrency() > 1 && n > cfg.parallel_threshold;
@@ -836,7 +836,7 @@ void build_into(Tree& t, std::span<const E> elements, const Config& config, X& e
     std::optional<memory::RunArena<Node>> arena;
     if (parallel) {
         const std::size_t expected = (cfg.trim_leaves ? 6 * n : 3 * n / cfg.max_leaf_elements) + 64;
-        const std::size_t large = ((std::size_t{1} << 20) + sizeof(Node) - 1) / sizeof(Node);
+        const std::size_t large = (memory::kArenaBlock + sizeof(Node) - 1) / sizeof(Node);
         const std::size_t small = (memory::kCachedBlock + sizeof(Node) - 1) / sizeof(Node);  // >= a cached block
         arena.emplace(in_regions        ? std::clamp<std::size_t>(n / 64, small, large - small)
                       : expected <= large ? expected

@@ -1065,7 +1065,7 @@ private:
             std::optional<memory::RunArena<WideNode>> arena;
             if (top.defer_depth != 0) {
                 memory::SmallPagesWhereCheap scratch;  // written once, read once by append()
-                const std::size_t large = (std::size_t{1} << 20) / sizeof(WideNode);  // 1 MiB
+                const std::size_t large = memory::kArenaBlock / sizeof(WideNode);
                 arena.emplace(std::clamp<std::size_t>(expected_nodes(facts[0].count) / 8, large,
                                                       (std::size_t{64} << 20) / sizeof(WideNode)));
             }

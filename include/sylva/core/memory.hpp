@@ -84,6 +84,11 @@ inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 /// whatever the settings do meanwhile.
 inline constexpr std::size_t kLargeBlock = std::size_t{2} << 20;
 
+/// The block size the builders' arenas (RunArena: the BIH's chunk runs, the WideTree
+/// collapse's parts) start from or stop at: 1 MiB, two blocks a chunk where they are carved.
+/// It was kLargeBlock until that grew to 2 MiB; kept apart so the arenas' blocks did not move.
+inline constexpr std::size_t kArenaBlock = std::size_t{1} << 20;
+
 /// Blocks from this many bytes up to kLargeBlock (in multiples of this) come from this allocator
 /// and are cached on free as well; smaller ones use operator new. Why: a build over 10^4-10^5
 /// elements has arrays of 16 KiB-1 MiB (the BIH's scratch and order, the WideTree's facts,
