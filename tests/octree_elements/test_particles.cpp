@@ -148,7 +148,7 @@ TEST_CASE("octree particles: the image equals brute force exactly, and the BIH's
     }
 }
 
-TEST_CASE("octree particles: too few records or a corrupted octree", "[particles][bad-input]") {
+TEST_CASE("octree and kd-tree particles: too few records, torn records or a corrupted octree", "[particles][bad-input]") {
     auto ps = testing::random_spheres(200, 81);
     std::span<const Sphere> s(ps);
     auto words = octree::encode_elements(octree::build_elements(s));
@@ -156,7 +156,19 @@ TEST_CASE("octree particles: too few records or a corrupted octree", "[particles
     ThreadPool pool(1);
     CameraFrame cam = Camera::framing(scene_of(ps)).frame(16, 16);
     std::vector<std::uint32_t> fewer(records.begin(), records.end() - 8);
-    CHECK_THROWS_AS(render_particles_octree_cpu(words, fewer, cam, 16, 16, pool), Error);
+    // The messages name the renderer, the index's element count and the records'.
+    CHECK_THROWS_WITH(render_particles_octree_cpu(words, fewer, cam, 16, 16, pool),
+                      Catch::Contains("render_particles_octree_cpu: the octree names 200 elements, the records hold 199"));
+    auto kd_words = kdtree::encode_elements(kdtree::build_elements(s));
+    CHECK_THROWS_WITH(render_particles_kd_cpu(kd_words, fewer, cam, 16, 16, pool),
+                      Catch::Contains("render_particles_kd_cpu: the kd-tree names 200 elements, the records hold 199"));
+    std::vector<std::uint32_t> torn(records.begin(), records.end() - 3);  // not whole records
+    CHECK_THROWS_WITH(render_particles_kd_cpu(kd_words, torn, cam, 16, 16, pool),
+                      Catch::Contains("not a whole number of 8-word particle records"));
+    CHECK_THROWS_WITH(render_particles_octree_cpu(words, torn, cam, 16, 16, pool),
+                      Catch::Contains("not a whole number of 8-word particle records"));
+    CHECK(render_particles_kd_cpu(kd_words, records, cam, 16, 16, pool).rgba ==
+          render_particles_octree_cpu(words, records, cam, 16, 16, pool).rgba);  // all records: both draw, alike
     auto bad = words;
     bad[9] ^= 1u;  // total words: the header is refused
     Frame f = render_particles_octree_cpu(bad, records, cam, 16, 16, pool);

@@ -6,7 +6,6 @@
 #define SYLVA_RENDER_ELEMENTS_HPP
 
 #include <algorithm>
-#include <chrono>
 #include <concepts>
 #include <cstdint>
 #include <span>
@@ -150,26 +149,14 @@ Frame render_elements_cpu(std::span<const std::uint32_t> words, std::span<const 
                           const CameraFrame& cam, std::uint32_t width, std::uint32_t height, X& exec,
                           const ParticleRenderConfig& cfg = {}) {
     std::uint32_t elem_count = check_element_inputs<E, I>(words, records, "render_elements_cpu");
-    check_rays(cfg.rays, width, height);
-    auto start = std::chrono::steady_clock::now();
-    Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
-    auto word_count = static_cast<std::uint32_t>(words.size());
-    exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
-        for (std::size_t y = y0; y < y1; ++y) {
-            for (std::uint32_t x = 0; x < width; ++x) {
-                Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);
-                std::uint32_t steps, status;
-                std::size_t i = y * width + x;
-                f.rgba[i] = shared::sylva_elements_composite<E, I>(
-                    w, word_count, e, elem_count, r.origin, r.direction, 0.0f, shared::sylva_inf(), cfg.alpha_stop,
-                    steps, status);
-                f.steps[i] = status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : steps;
-            }
-        }
-    });
-    f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    return f;
+    const std::uint32_t word_count = detail::word_count32(words);
+    return detail::render_pixel_rays(cam, width, height, exec, cfg,
+                                     [&](vec3 o, vec3 d, std::uint32_t& steps, std::uint32_t& status) {
+                                         return shared::sylva_elements_composite<E, I>(
+                                             w, word_count, e, elem_count, o, d, 0.0f, shared::sylva_inf(),
+                                             cfg.alpha_stop, steps, status);
+                                     });
 }
 
 /// Composites one ray through any RayInteraction type on the host (also C++-only types that do

@@ -5,11 +5,9 @@
 #ifndef SYLVA_RENDER_OCTREE_PARTICLES_HPP
 #define SYLVA_RENDER_OCTREE_PARTICLES_HPP
 
-#include <chrono>
 #include <cstdint>
 #include <span>
 #include <string>
-#include <vector>
 
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
@@ -27,32 +25,16 @@ template <Executor X>
 Frame render_particles_octree_cpu(std::span<const std::uint32_t> words, std::span<const std::uint32_t> records,
                                   const CameraFrame& cam, std::uint32_t width, std::uint32_t height, X& exec,
                                   const ParticleRenderConfig& cfg = {}) {
-    if (records.size() % SYLVA_PARTICLE_WORDS != 0 || records.size() / SYLVA_PARTICLE_WORDS > SYLVA_PARTICLE_MAX_RECORDS)
-        throw Error("render_particles_octree_cpu: " + std::to_string(records.size()) +
-                    " record words are not a whole number of 8-word particle records below 2^29");
-    if (words.size() > 7 && words[7] > records.size() / SYLVA_PARTICLE_WORDS)
-        throw Error("render_particles_octree_cpu: the octree names " + std::to_string(words[7]) + " elements, the records hold " +
-                    std::to_string(records.size() / SYLVA_PARTICLE_WORDS));
-    check_rays(cfg.rays, width, height);
-    auto start = std::chrono::steady_clock::now();
-    Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
+    const std::uint32_t n =
+        detail::check_particle_records(records, words.size() > 7 ? words[7] : 0u, "render_particles_octree_cpu", "octree");
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
-    auto word_count = static_cast<std::uint32_t>(std::min<std::size_t>(words.size(), 0xFFFFFFFFu));
-    auto n = static_cast<std::uint32_t>(records.size() / SYLVA_PARTICLE_WORDS);
-    exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
-        for (std::size_t y = y0; y < y1; ++y) {
-            for (std::uint32_t x = 0; x < width; ++x) {
-                Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);
-                std::uint32_t steps, status;
-                std::size_t i = y * width + x;
-                f.rgba[i] = shared::sylva_octe_render_particles(w, word_count, e, n, r.origin, r.direction, 0.0f,
-                                                                shared::sylva_inf(), cfg.alpha_stop, steps, status);
-                f.steps[i] = status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : steps;
-            }
-        }
-    });
-    f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    return f;
+    const std::uint32_t word_count = detail::word_count32(words);
+    return detail::render_pixel_rays(cam, width, height, exec, cfg,
+                                     [&](vec3 o, vec3 d, std::uint32_t& steps, std::uint32_t& status) {
+                                         return shared::sylva_octe_render_particles(w, word_count, e, n, o, d, 0.0f,
+                                                                                    shared::sylva_inf(), cfg.alpha_stop,
+                                                                                    steps, status);
+                                     });
 }
 
 }  // namespace sylva

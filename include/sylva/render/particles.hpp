@@ -3,6 +3,7 @@
 #ifndef SYLVA_RENDER_PARTICLES_HPP
 #define SYLVA_RENDER_PARTICLES_HPP
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <span>
@@ -52,6 +53,58 @@ inline void check_particle_payload(std::uint32_t kind, std::size_t record_words,
                     " particle records are more than 32-bit word indices address (2^29)");
 }
 
+namespace detail {
+
+/// The pixel loop of the particle and element renderers: for each pixel of a width x height
+/// frame, its primary ray (cfg.rays, pixel_ray) and rgba = integrate(origin, direction, steps,
+/// status) with the shared integrator, rows spread over exec's threads; a pixel whose status is
+/// SYLVA_ITER_ERROR (a corrupted encoding) gets steps 0xFFFFFFFF. Throws sylva::Error for a
+/// ray buffer that does not fit the frame (check_rays).
+template <Executor X, class Integrate>
+Frame render_pixel_rays(const CameraFrame& cam, std::uint32_t width, std::uint32_t height, X& exec,
+                        const ParticleRenderConfig& cfg, Integrate&& integrate) {
+    check_rays(cfg.rays, width, height);
+    auto start = std::chrono::steady_clock::now();
+    Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
+    exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y) {
+            for (std::uint32_t x = 0; x < width; ++x) {
+                Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);
+                std::uint32_t steps, status;
+                std::size_t i = y * width + x;
+                f.rgba[i] = integrate(r.origin, r.direction, steps, status);
+                f.steps[i] = status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : steps;
+            }
+        }
+    });
+    f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return f;
+}
+
+/// Throws sylva::Error unless `records` is a whole number of 8-word particle records, at most
+/// SYLVA_PARTICLE_MAX_RECORDS, and at least the `index_elements` elements the encoded element
+/// index names (`who`: the renderer, `index`: "kd-tree" or "octree", for the message). Returns
+/// the record count.
+inline std::uint32_t check_particle_records(std::span<const std::uint32_t> records, std::uint32_t index_elements,
+                                            const char* who, const char* index) {
+    if (records.size() % SYLVA_PARTICLE_WORDS != 0 || records.size() / SYLVA_PARTICLE_WORDS > SYLVA_PARTICLE_MAX_RECORDS)
+        throw Error(std::string(who) + ": " + std::to_string(records.size()) +
+                    " record words are not a whole number of 8-word particle records below 2^29");
+    auto n = static_cast<std::uint32_t>(records.size() / SYLVA_PARTICLE_WORDS);
+    if (index_elements > n)
+        throw Error(std::string(who) + ": the " + index + " names " + std::to_string(index_elements) +
+                    " elements, the records hold " + std::to_string(n));
+    return n;
+}
+
+/// The encoding's word count as the shared code takes it (clamped to 2^32 - 1: a longer buffer
+/// then fails the header's size check there).
+inline std::uint32_t word_count32(std::span<const std::uint32_t> words) {
+    return static_cast<std::uint32_t>(std::min<std::size_t>(words.size(), 0xFFFFFFFFu));
+}
+
+}  // namespace detail
+
 /// Renders `words` (an encoded particle BIH) with `records` (pack_particles output; empty for
 /// inline payloads) on the host. Throws sylva::Error when the encoding's payload kind is not a
 /// particle kind (check_particle_payload); a corrupted encoding instead marks its pixels'
@@ -62,25 +115,14 @@ Frame render_particles_cpu(std::span<const std::uint32_t> words, std::span<const
                            const ParticleRenderConfig& cfg = {}) {
     if (words.size() >= SYLVA_BIH_HEADER_WORDS && words[0] == SYLVA_BIH_MAGIC)
         check_particle_payload((words[2] >> 8) & 255u, records.size(), "render_particles_cpu");
-    check_rays(cfg.rays, width, height);
-    auto start = std::chrono::steady_clock::now();
-    Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
     shared::Words w{words.data(), words.size()}, e{records.data(), records.size()};
-    auto word_count = static_cast<std::uint32_t>(std::min<std::size_t>(words.size(), 0xFFFFFFFFu));
-    exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
-        for (std::size_t y = y0; y < y1; ++y) {
-            for (std::uint32_t x = 0; x < width; ++x) {
-                Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);
-                std::uint32_t steps, status;
-                std::size_t i = y * width + x;
-                f.rgba[i] = shared::sylva_render_particles(w, word_count, e, r.origin, r.direction, 0.0f,
-                                                           shared::sylva_inf(), cfg.alpha_stop, steps, status);
-                f.steps[i] = status == SYLVA_ITER_ERROR ? 0xFFFFFFFFu : steps;
-            }
-        }
-    });
-    f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    return f;
+    const std::uint32_t word_count = detail::word_count32(words);
+    return detail::render_pixel_rays(cam, width, height, exec, cfg,
+                                     [&](vec3 o, vec3 d, std::uint32_t& steps, std::uint32_t& status) {
+                                         return shared::sylva_render_particles(w, word_count, e, o, d, 0.0f,
+                                                                               shared::sylva_inf(), cfg.alpha_stop,
+                                                                               steps, status);
+                                     });
 }
 
 }  // namespace sylva
