@@ -171,7 +171,7 @@ std::vector<Contribution> bih_sequence(std::span<const std::uint32_t> words, std
         uvec2 p = shared::sylva_bih_payload(w, it.hdr, leaf);
         leaf_list.clear();
         for (std::uint32_t k = 0; k < p.y; ++k) {
-            vec2 a = shared::sylva_octe_approach(el, p.x + k, r.origin, r.direction);
+            vec2 a = shared::sylva_particle_record_approach(el, p.x + k, r.origin, r.direction);
             if (a.y <= 1.0f && a.x >= 0.0f) leaf_list.push_back({a.x, order[p.x + k], p.x + k, leaf, a.y});
         }
         if (p.y <= SYLVA_LEAF_SORT)  // by (t_c, slot); slots ascend with the records

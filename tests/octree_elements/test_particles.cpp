@@ -32,13 +32,13 @@ vec4 brute_force(const std::vector<std::uint32_t>& records, const Ray& r, float 
     std::vector<std::pair<float, std::uint32_t>> order;
     std::uint32_t n = std::uint32_t(records.size() / SYLVA_PARTICLE_WORDS);
     for (std::uint32_t e = 0; e < n; ++e) {
-        vec2 a = shared::sylva_octe_approach(el, e, r.origin, r.direction);
+        vec2 a = shared::sylva_particle_record_approach(el, e, r.origin, r.direction);
         if (a.y <= 1.0f && a.x >= 0.0f && a.x <= t_max) order.push_back({a.x, e});
     }
     std::sort(order.begin(), order.end());
     shared::SylvaComposite acc{vec3(0.0f), 0.0f};
     for (auto [t, e] : order) {
-        vec2 a = shared::sylva_octe_approach(el, e, r.origin, r.direction);
+        vec2 a = shared::sylva_particle_record_approach(el, e, r.origin, r.direction);
         float kappa = std::bit_cast<float>(records[e * SYLVA_PARTICLE_WORDS + 4]);
         shared::sylva_composite_add(acc, shared::sylva_unpack_rgba8(records[e * SYLVA_PARTICLE_WORDS + 5]),
                                     shared::sylva_radial_weight(a.y, kappa));
