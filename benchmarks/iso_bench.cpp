@@ -478,8 +478,8 @@ Frame render_nanovdb(const nanovdb::NanoGrid<float>& grid, const IsoRenderParams
     f.steps.assign(f.rgba.size(), 0u);
     std::atomic<std::uint64_t> steps{0}, cells{0}, hits{0};
     auto start = std::chrono::steady_clock::now();
-    pool.parallel_for(0, p.height, 1, [&](std::size_t y0, std::size_t y1) {
-        auto acc = grid.getAccessor();  // one ReadAccessor (and its node cache) per worker's rows
+    parallel_take(pool, 0, p.height, kRowsPerTake, [&](std::size_t y0, std::size_t y1) {
+        auto acc = grid.getAccessor();  // one ReadAccessor (and its node cache) per block of rows, as render_iso_cpu takes them
         std::uint64_t ns = 0, nc = 0, nh = 0;
         for (std::size_t y = y0; y < y1; ++y)
             for (std::uint32_t x = 0; x < p.width; ++x) {

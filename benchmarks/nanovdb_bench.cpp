@@ -182,7 +182,7 @@ Image render(const Rays& rays, ThreadPool& pool, F&& ray) {
     img.rgba.resize(rays.origin.size());
     std::vector<std::uint32_t> samples(rays.origin.size()), steps(rays.origin.size());
     auto t0 = Clock::now();
-    pool.parallel_for(0, rays.height, 1, [&](std::size_t y0, std::size_t y1) {
+    parallel_take(pool, 0, rays.height, kRowsPerTake, [&](std::size_t y0, std::size_t y1) {  // as sylva's renderers take rows
         for (std::size_t y = y0; y < y1; ++y)
             for (std::size_t x = 0; x < rays.width; ++x) {
                 std::size_t i = y * rays.width + x;

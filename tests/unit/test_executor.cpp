@@ -21,6 +21,49 @@ TEST_CASE("parallel_for covers the range exactly once", "[executor]") {
     for (auto& h : hits) REQUIRE(h.load() == 1);
 }
 
+TEST_CASE("parallel_take hands out every block once, in blocks of its size, on any executor", "[executor]") {
+    // The renderers' row loop: blocks of `block` items from a shared counter. Each block comes
+    // once, starts at a multiple of the block from begin, and only the last one is shorter.
+    auto check = [](auto& exec, std::size_t begin, std::size_t end, std::size_t block) {
+        INFO("range [" << begin << ", " << end << "), block " << block << ", " << exec.concurrency() << " threads");
+        std::vector<std::atomic<int>> hits(end + 1);
+        std::atomic<std::size_t> calls{0}, short_blocks{0};
+        const std::size_t b = block == 0 ? 1 : block;
+        parallel_take(exec, begin, end, block, [&](std::size_t lo, std::size_t hi) {
+            ++calls;
+            CHECK(lo < hi);
+            CHECK((lo - begin) % b == 0);
+            CHECK(hi <= end);
+            if (hi - lo != b) {
+                ++short_blocks;
+                CHECK(hi == end);
+            }
+            for (std::size_t i = lo; i < hi; ++i) hits[i]++;
+        });
+        for (std::size_t i = 0; i <= end; ++i) REQUIRE(hits[i].load() == (i >= begin && i < end ? 1 : 0));
+        CHECK(calls.load() == (end > begin ? (end - begin + b - 1) / b : 0));
+        CHECK(short_blocks.load() <= 1);
+    };
+    ThreadPool pool(3);
+    SerialExecutor serial;
+    for (std::size_t end : {0, 1, 2, 7, 512, 1001})
+        for (std::size_t block : {0, 1, 2, 5, 2000}) {
+            check(pool, 0, end, block);
+            check(serial, 0, end, block);
+            check(pool, 3, end + 3, block);
+        }
+    check(pool, 9, 4, 2);  // an empty range: no call
+    // An exception from a block reaches the caller once every task has stopped; the pool works on.
+    std::atomic<int> after{0};
+    CHECK_THROWS_AS(parallel_take(pool, 0, 1000, 1,
+                                  [&](std::size_t lo, std::size_t) {
+                                      if (lo == 500) throw std::runtime_error("block 500");
+                                  }),
+                    std::runtime_error);
+    parallel_take(pool, 0, 100, 3, [&](std::size_t lo, std::size_t hi) { after += int(hi - lo); });
+    CHECK(after.load() == 100);
+}
+
 TEST_CASE("nested invoke does not deadlock and exceptions propagate", "[executor]") {
     // Without polling, with the default, and polling longer than any wait here (every wait then
     // ends in the poll, never on the condition variable).

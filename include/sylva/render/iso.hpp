@@ -266,7 +266,7 @@ Frame render_iso_cpu(std::span<const std::uint32_t> words, const GridWords& grid
     Frame f = detail::iso_frame(p);
     detail::IsoTotals totals;
     auto start = std::chrono::steady_clock::now();
-    exec.parallel_for(0, p.height, 1, [&](std::size_t y0, std::size_t y1) {
+    parallel_take(exec, 0, p.height, kRowsPerTake, [&](std::size_t y0, std::size_t y1) {
         IsoCounters n;
         for (std::size_t y = y0; y < y1; ++y)
             for (std::uint32_t x = 0; x < p.width; ++x)
@@ -447,7 +447,7 @@ void iso_tiles(shared::Words tw, shared::Words gw, const shared::SylvaIsoParams&
                const ikd::IsoCodes& codes, const ikd::Levels& levels, const IsoRenderParams& p, X& exec, Frame& f,
                IsoTotals& totals) {
     constexpr std::uint32_t w = packet_tile_width(L), h = L / packet_tile_width(L);
-    exec.parallel_for(0, (p.height + h - 1) / h, 1, [&](std::size_t r0, std::size_t r1) {
+    parallel_take(exec, 0, (p.height + h - 1) / h, 1, [&](std::size_t r0, std::size_t r1) {
         IsoCounters n;
         for (std::size_t r = r0; r < r1; ++r)
             for (std::uint32_t x = 0; x < p.width; x += w)

@@ -66,7 +66,7 @@ Frame render_pixel_rays(const CameraFrame& cam, std::uint32_t width, std::uint32
     check_rays(cfg.rays, width, height);
     auto start = std::chrono::steady_clock::now();
     Frame f{width, height, std::vector<vec4>(std::size_t{width} * height), std::vector<std::uint32_t>(std::size_t{width} * height), 0.0};
-    exec.parallel_for(0, height, 1, [&](std::size_t y0, std::size_t y1) {
+    parallel_take(exec, 0, height, kRowsPerTake, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y) {
             for (std::uint32_t x = 0; x < width; ++x) {
                 Ray r = pixel_ray(cam, cfg.rays, x, static_cast<std::uint32_t>(y), width, height);

@@ -430,7 +430,7 @@ Frame render_pixels(const VolumeRenderParams& p, X& exec, RayFn&& ray) {
     auto start = std::chrono::steady_clock::now();
     std::size_t n = std::size_t{p.width} * p.height;
     Frame f{p.width, p.height, std::vector<vec4>(n), std::vector<std::uint32_t>(n), 0.0};
-    exec.parallel_for(0, p.height, 1, [&](std::size_t y0, std::size_t y1) {
+    parallel_take(exec, 0, p.height, kRowsPerTake, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y) {
             for (std::uint32_t x = 0; x < p.width; ++x) {
                 Ray r = pixel_ray(p.camera, p.rays, x, static_cast<std::uint32_t>(y), p.width, p.height);
