@@ -27,22 +27,21 @@ TEST_CASE("parallel_take hands out every block once, in blocks of its size, on a
     auto check = [](auto& exec, std::size_t begin, std::size_t end, std::size_t block) {
         INFO("range [" << begin << ", " << end << "), block " << block << ", " << exec.concurrency() << " threads");
         std::vector<std::atomic<int>> hits(end + 1);
-        std::atomic<std::size_t> calls{0}, short_blocks{0};
+        std::atomic<std::size_t> calls{0}, short_blocks{0}, bad_blocks{0};  // Catch's macros on this thread only
         const std::size_t b = block == 0 ? 1 : block;
         parallel_take(exec, begin, end, block, [&](std::size_t lo, std::size_t hi) {
             ++calls;
-            CHECK(lo < hi);
-            CHECK((lo - begin) % b == 0);
-            CHECK(hi <= end);
+            if (!(lo < hi && (lo - begin) % b == 0 && hi <= end)) ++bad_blocks;
             if (hi - lo != b) {
                 ++short_blocks;
-                CHECK(hi == end);
+                if (hi != end) ++bad_blocks;
             }
-            for (std::size_t i = lo; i < hi; ++i) hits[i]++;
+            for (std::size_t i = lo; i < hi && i <= end; ++i) hits[i]++;
         });
         for (std::size_t i = 0; i <= end; ++i) REQUIRE(hits[i].load() == (i >= begin && i < end ? 1 : 0));
         CHECK(calls.load() == (end > begin ? (end - begin + b - 1) / b : 0));
         CHECK(short_blocks.load() <= 1);
+        CHECK(bad_blocks.load() == 0);
     };
     ThreadPool pool(3);
     SerialExecutor serial;
