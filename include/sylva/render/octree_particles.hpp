@@ -7,7 +7,6 @@
 
 #include <cstdint>
 #include <span>
-#include <string>
 
 #include "sylva/core/error.hpp"
 #include "sylva/core/executor.hpp"
